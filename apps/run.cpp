@@ -1,0 +1,469 @@
+// The run driver: scene -> state -> time loop with sampling -> summary -> HDF5 + XYZ.
+#include "apps/run.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include "lib/error.hpp"
+#include "lib/h5.hpp"
+#include "lib/init.hpp"
+#include "lib/progress.hpp"
+#include "lib/xyz.hpp"
+
+#ifndef JAMFLOW_VERSION
+#define JAMFLOW_VERSION "unknown"
+#endif
+#ifndef JAMFLOW_GIT_COMMIT
+#define JAMFLOW_GIT_COMMIT "unknown"
+#endif
+
+namespace jamflow {
+
+const char* const kDefaultScene =
+    R"(# jamflow default scene: harmonic soft spheres sheared at constant volume.
+[system]
+N = 1000          # particles, equimolar mixture of diameters 1 and 1.4
+phi = 0.62        # packing fraction
+alpha = 2.0       # pair exponent alpha_r (2 = harmonic)
+seed = 1
+
+[ensemble]
+kind = "constant_volume"
+
+[shear]
+rate = 1e-3       # gdot in 1/tau_0
+
+[integrator]
+kind = "euler"
+dt = 0.1          # tau_0; dt >= 0.4 oscillates for explicit Euler (SPEC section 4)
+
+[run]
+t_eq = 1000.0     # equilibration (not averaged)
+t_av = 2000.0     # averaging window
+sample_every = 1.0
+blocks = 20
+
+[output]
+file = "jamflow.h5"
+)";
+
+namespace {
+
+std::string stem_of(const std::string& path) {
+  const std::string ext = ".h5";
+  if (path.size() > ext.size() && path.compare(path.size() - ext.size(), ext.size(), ext) == 0) {
+    return path.substr(0, path.size() - ext.size());
+  }
+  return path;
+}
+
+std::string replica_suffix(std::size_t k, std::size_t count) {
+  return count > 1 ? ".r" + std::to_string(k) : "";
+}
+
+std::string iso_now() {
+  const std::time_t t = std::time(nullptr);
+  char buf[64];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+  return buf;
+}
+
+}  // namespace
+
+std::unique_ptr<Integrator> RunSpec::make_integrator() const {
+  ConfigSection sec = scene.section("integrator");
+  return jamflow::make_integrator(sec);
+}
+
+RunSpec parse_run_spec(const Scene& scene) {
+  scene.check_sections({"system", "ensemble", "shear", "integrator", "run", "output"});
+  for (const char* required : {"system", "ensemble", "shear", "integrator", "run"}) {
+    if (!scene.has_section(required)) {
+      throw ConfigError(std::string("missing section [") + required + "] in " + scene.source());
+    }
+  }
+  RunSpec spec;
+  spec.scene = scene;
+  spec.scene_text = scene.text();
+
+  ConfigSection sys = scene.section("system");
+  spec.init = sys.text("init", "");
+  const Range phi_range{0.0, 0.95, true, false};
+  if (spec.init.empty()) {
+    spec.n = sys.integer("N", 2, NeighbourList::kMaxParticles);
+    spec.phi = sys.number("phi", phi_range);
+  } else {
+    State s = read_xyz(spec.init);
+    spec.n = static_cast<std::int64_t>(s.size());
+    spec.phi = s.packing_fraction();
+    if (sys.has("N")) {
+      const std::int64_t n = sys.integer("N", 2, NeighbourList::kMaxParticles);
+      if (n != spec.n) {
+        throw ConfigError("[system] N = " + std::to_string(n) + " disagrees with init '" +
+                          spec.init + "' (" + std::to_string(spec.n) + " particles)");
+      }
+    }
+    if (sys.has("phi")) {
+      const double phi = sys.number("phi", phi_range);
+      if (std::abs(phi - spec.phi) > 1e-6) {
+        throw ConfigError("[system] phi = " + fmt(phi) + " disagrees with init '" + spec.init +
+                          "' (phi = " + fmt(spec.phi) + "); allowed within 1e-6 of it");
+      }
+    }
+    spec.init_state = std::move(s);
+  }
+  spec.alpha = sys.number("alpha", 2.0, Range{kAlphaMin, kAlphaMax});
+  spec.seed = static_cast<std::uint64_t>(
+      sys.integer("seed", 1, 0, std::numeric_limits<std::int64_t>::max()));
+  spec.skin = sys.number("skin", 0.3, Range{0.01, 2.0});
+  sys.finish();
+
+  ConfigSection shear = scene.section("shear");
+  spec.shear_rate = shear.number("rate", Range::non_negative());
+  shear.finish();
+
+  ConfigSection ens = scene.section("ensemble");
+  spec.ensemble = make_ensemble(ens, spec.shear_rate);
+
+  {
+    ConfigSection integ = scene.section("integrator");
+    spec.integrator_kind =
+        integ.has("kind") ? integ.choice("kind", {"euler", "respa", "cvode"}) : std::string();
+    // Full validation (kind-specific keys) happens in the factory.
+    (void)spec.make_integrator();
+  }
+
+  ConfigSection run = scene.section("run");
+  spec.t_eq = run.number("t_eq", Range::non_negative());
+  spec.t_av = run.number("t_av", Range::positive());
+  spec.sample_every = run.number("sample_every", Range::positive());
+  spec.blocks = run.integer("blocks", 20, 2, 100000);
+  spec.replicas = run.integer("replicas", 1, 1, 10000);
+  spec.threads = static_cast<int>(run.integer("threads", 0, 0, 1024));
+  run.finish();
+  const double window_samples = std::floor(spec.t_av / spec.sample_every + 1e-9);
+  if (window_samples < double(spec.blocks)) {
+    throw ConfigError("[run] t_av / sample_every = " + fmt(window_samples) +
+                      " samples is fewer than [run] blocks = " + std::to_string(spec.blocks) +
+                      "; allowed t_av >= blocks * sample_every");
+  }
+
+  ConfigSection out = scene.section("output");
+  spec.file = out.text("file", "jamflow.h5");
+  spec.trajectory_every = out.number("trajectory_every", 0.0, Range::non_negative());
+  out.finish();
+  if (spec.trajectory_every > 0.0) {
+    const double ratio = spec.trajectory_every / spec.sample_every;
+    if (std::abs(ratio - std::round(ratio)) > 1e-9 * ratio) {
+      throw ConfigError("[output] trajectory_every = " + fmt(spec.trajectory_every) +
+                        " must be a multiple of [run] sample_every = " + fmt(spec.sample_every));
+    }
+  }
+  return spec;
+}
+
+std::vector<double> Series::column(double Sample::*field) const {
+  std::vector<double> v;
+  v.reserve(samples.size());
+  for (const auto& s : samples)
+    v.push_back(s.*field);
+  return v;
+}
+
+Summary summarize(const RunSpec& spec, const Series& series) {
+  Summary sum;
+  auto& out = sum.values;
+  std::vector<Sample> win;
+  const double t0 = spec.t_eq - 1e-9 * spec.sample_every;
+  for (const auto& s : series.samples) {
+    if (s.time >= t0)
+      win.push_back(s);
+  }
+  // The t = t_eq sample closes equilibration; averages use the samples after it.
+  if (!win.empty() && std::abs(win.front().time - spec.t_eq) < 1e-9 * spec.sample_every &&
+      spec.t_eq > 0.0) {
+    win.erase(win.begin());
+  }
+  const std::size_t nb = static_cast<std::size_t>(spec.blocks);
+  if (win.size() < nb) {
+    throw IntegrationError(
+        "only " + std::to_string(win.size()) +
+        " samples in the averaging window, fewer than blocks = " + std::to_string(nb));
+  }
+  Series w{win};
+  const auto sigma = w.column(&Sample::sigma_xy);
+  const auto press = w.column(&Sample::pressure);
+  const auto phi = w.column(&Sample::phi);
+  const auto energy = w.column(&Sample::energy);
+  const double gdot = spec.shear_rate;
+  std::vector<double> work(win.size()), loss(win.size());
+  for (std::size_t k = 0; k < win.size(); ++k) {
+    work[k] = win[k].sigma_xy * gdot * win[k].volume;
+    loss[k] = win[k].dissipation + win[k].piston_dissipation;
+  }
+  const BlockAverage bs = block_average(sigma, nb);
+  const BlockAverage bp = block_average(press, nb);
+  const BlockAverage bphi = block_average(phi, nb);
+  const BlockAverage be = block_average(energy, nb);
+  const BlockAverage bw = block_average(work, nb);
+  const BlockAverage bl = block_average(loss, nb);
+  out["sigma_xy"] = bs.mean;
+  out["sigma_xy_err"] = bs.error;
+  out["pressure"] = bp.mean;
+  out["pressure_err"] = bp.error;
+  out["phi"] = bphi.mean;
+  out["phi_err"] = bphi.error;
+  out["phi_block_std"] = bphi.block_std;
+  out["energy"] = be.mean;
+  out["energy_err"] = be.error;
+  out["dissipation"] = bl.mean;
+  out["energy_balance"] =
+      bl.mean > 0.0 ? bw.mean / bl.mean : std::numeric_limits<double>::quiet_NaN();
+  out["samples"] = double(win.size());
+  out["block_length"] = double(win.size() / nb) * spec.sample_every;
+
+  const std::optional<double> imposed = spec.ensemble->imposed_pressure();
+  // mu = sigma / P: with the imposed P at constant pressure, else the block ratio.
+  std::vector<double> mu_blocks(nb);
+  for (std::size_t b = 0; b < nb; ++b) {
+    mu_blocks[b] = bs.blocks[b] / (imposed ? *imposed : bp.blocks[b]);
+  }
+  const BlockAverage bmu = block_average(mu_blocks, nb);
+  out["mu"] = imposed ? bs.mean / *imposed : bs.mean / bp.mean;
+  out["mu_err"] = bmu.error;
+  const double p_ref = imposed ? *imposed : bp.mean;
+  if (gdot > 0.0) {
+    out["eta"] = bs.mean / gdot;
+    out["eta_err"] = bs.error / gdot;
+    out["eta_block_std"] = bs.block_std / gdot;
+    out["J"] = gdot / p_ref;  // J = gdot eta_0 / P with eta_0 = xi_s / a = 1
+  }
+  const double tau = integrated_autocorrelation(sigma) * spec.sample_every;
+  out["tau_sigma_xy"] = tau;
+  if (out["block_length"] < 2.0 * tau) {
+    sum.warnings.push_back("block length " + fmt(out["block_length"]) +
+                           " is shorter than 2 autocorrelation times of sigma_xy (tau = " +
+                           fmt(tau) + "); block errors are underestimated: lengthen t_av");
+  }
+  return sum;
+}
+
+State initial_state(const RunSpec& spec, std::uint64_t seed) {
+  if (spec.init_state)
+    return *spec.init_state;
+  return random_state(static_cast<std::size_t>(spec.n), spec.phi, seed);
+}
+
+ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOptions& options) {
+  ReplicaResult res;
+  res.seed = seed;
+  const auto wall0 = std::chrono::steady_clock::now();
+  ModelOptions mo;
+  mo.alpha = spec.alpha;
+  mo.skin = spec.skin;
+  mo.threads = spec.threads;
+  Model model(initial_state(spec, seed), mo);
+  std::unique_ptr<Integrator> integ = spec.make_integrator();
+  const Ensemble& ens = *spec.ensemble;
+
+  const double t_start = model.state().time;
+  const double t_total = spec.t_eq + spec.t_av;
+  const auto k_max = static_cast<long long>(std::floor(t_total / spec.sample_every + 1e-9));
+  const long long traj_stride =
+      spec.trajectory_every > 0 ? std::llround(spec.trajectory_every / spec.sample_every) : 0;
+
+  std::ofstream traj;
+  std::string traj_path;
+  if (traj_stride > 0) {
+    traj_path = options.label + ".traj.xyz";
+    traj.open(traj_path + ".part");
+    if (!traj)
+      throw IoError("cannot write trajectory '" + traj_path + ".part'");
+  }
+
+  Progress progress(options.label, t_total, options.quiet);
+  auto record = [&](double t_rel) {
+    const Evaluation& ev = model.evaluate();
+    const State& s = model.state();
+    res.series.samples.push_back(Sample{t_rel, s.box.strain, ev.volume, ev.phi, ev.pressure,
+                                        ev.sigma_xy, ev.forces.energy, ev.dissipation,
+                                        ens.piston_dissipation(ev.pressure)});
+  };
+  try {
+    record(0.0);
+    if (traj_stride > 0)
+      write_xyz(traj, model.state());
+    for (long long k = 1; k <= k_max; ++k) {
+      if (options.stop && options.stop->load()) {
+        res.status = "interrupted at t = " + fmt(model.state().time - t_start);
+        break;
+      }
+      const double t_rel = double(k) * spec.sample_every;
+      integ->advance(model, ens, t_start + t_rel);
+      record(t_rel);
+      if (traj_stride > 0 && k % traj_stride == 0)
+        write_xyz(traj, model.state());
+      const Sample& last = res.series.samples.back();
+      char extra[160];
+      std::snprintf(extra, sizeof extra, "phi %.5f  P %.3e  sigma_xy %.3e", last.phi, last.pressure,
+                    last.sigma_xy);
+      progress.update(t_rel, extra);
+    }
+    if (res.status == "complete")
+      progress.finish();
+  } catch (const IntegrationError& e) {
+    res.status = "failed at t = " + fmt(model.state().time - t_start) + ": " + e.what();
+  }
+  res.final_state = model.state();
+  res.integrator_stats = integ->statistics();
+  res.integrator_stats.emplace_back("force_evaluations", double(model.force_evaluations()));
+  res.integrator_stats.emplace_back("neighbour_list_builds", double(model.list_builds()));
+  if (traj_stride > 0) {
+    traj.close();
+    if (res.status == "complete")
+      std::filesystem::rename(traj_path + ".part", traj_path);
+  }
+  if (res.status == "complete") {
+    res.summary = summarize(spec, res.series);
+  }
+  res.wall_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  return res;
+}
+
+namespace {
+
+void write_replica(H5Writer& w, const RunSpec& spec, const ReplicaResult& r,
+                   const std::string& prefix) {
+  const auto& ss = r.series;
+  const std::string ts = prefix + "/timeseries";
+  w.dataset(ts + "/time", ss.column(&Sample::time));
+  w.dataset(ts + "/strain", ss.column(&Sample::strain));
+  w.dataset(ts + "/volume", ss.column(&Sample::volume));
+  w.dataset(ts + "/phi", ss.column(&Sample::phi));
+  w.dataset(ts + "/pressure", ss.column(&Sample::pressure));
+  w.dataset(ts + "/sigma_xy", ss.column(&Sample::sigma_xy));
+  w.dataset(ts + "/energy", ss.column(&Sample::energy));
+  w.dataset(ts + "/dissipation", ss.column(&Sample::dissipation));
+  if (spec.ensemble->has_piston()) {
+    w.dataset(ts + "/piston_dissipation", ss.column(&Sample::piston_dissipation));
+  }
+  w.attr(ts, "t_eq", spec.t_eq);
+  w.attr(ts, "seed", static_cast<std::int64_t>(r.seed));
+
+  // Final configuration, in particle id order; cell rows are the lattice vectors.
+  const State& st = r.final_state;
+  const std::size_t n = st.size();
+  std::vector<double> pos(3 * n), diam(n);
+  std::vector<std::int64_t> species(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto id = static_cast<std::size_t>(st.id[i]);
+    Eigen::Vector3d s = st.scaled(i);
+    for (int c = 0; c < 3; ++c)
+      s[c] -= std::floor(s[c]);
+    const Eigen::Vector3d x = st.box.h() * s;
+    for (int c = 0; c < 3; ++c)
+      pos[3 * id + c] = x[c];
+    diam[id] = st.diameter[i];
+    species[id] = st.species[i];
+  }
+  const std::string fin = prefix + "/final";
+  w.dataset(fin + "/positions", pos, {n, 3});
+  w.dataset(fin + "/diameters", diam);
+  w.dataset(fin + "/species", species);
+  const Eigen::Matrix3d cell = st.box.h().transpose();
+  std::vector<double> cellv(9);
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b)
+      cellv[3 * a + b] = cell(a, b);
+  w.dataset(fin + "/cell", cellv, {3, 3});
+  w.attr(fin, "strain", st.box.strain);
+  w.attr(fin, "time", st.time);
+
+  const std::string sm = prefix + "/summary";
+  w.group(sm);
+  for (const auto& [k, v] : r.summary.values)
+    w.attr(sm, k, v);
+  w.attr(sm, "N", static_cast<std::int64_t>(n));
+  w.attr(sm, "alpha", spec.alpha);
+  spec.ensemble->describe(w, sm);
+  w.attr(sm, "integrator", spec.integrator_kind);
+  for (const auto& [k, v] : r.integrator_stats)
+    w.attr(sm, "integrator_" + k, v);
+  w.attr(sm, "wall_seconds", r.wall_seconds);
+  w.attr(sm, "status", r.status);
+}
+
+}  // namespace
+
+bool write_run_file(const RunSpec& spec, const std::vector<ReplicaResult>& replicas,
+                    const std::string& path) {
+  H5Writer w(path);
+  w.attr("/", "scene", spec.scene_text);
+  w.attr("/", "version", JAMFLOW_VERSION);
+  w.attr("/", "git_commit", JAMFLOW_GIT_COMMIT);
+  w.attr("/", "created", iso_now());
+  w.attr("/", "replicas", static_cast<std::int64_t>(replicas.size()));
+  std::string failed;
+  for (const auto& r : replicas) {
+    if (r.status != "complete" && failed.empty())
+      failed = r.status;
+  }
+  write_replica(w, spec, replicas.front(), "");
+  if (replicas.size() > 1) {
+    for (std::size_t k = 0; k < replicas.size(); ++k) {
+      write_replica(w, spec, replicas[k], "/replicas/" + std::to_string(k));
+    }
+  }
+  if (!failed.empty()) {
+    w.keep_partial(failed);
+    return false;
+  }
+  w.commit();
+  return true;
+}
+
+int run_and_write(const RunSpec& spec, const RunOptions& options) {
+  std::vector<ReplicaResult> results;
+  const std::string stem = stem_of(spec.file);
+  const auto count = static_cast<std::size_t>(spec.replicas);
+  bool ok = true;
+  for (std::size_t k = 0; k < count && ok; ++k) {
+    RunOptions o = options;
+    o.label = stem + replica_suffix(k, count);
+    results.push_back(run_replica(spec, spec.seed + k, o));
+    ok = results.back().status == "complete";
+    write_xyz_file(o.label + (ok ? ".final.xyz" : ".last.xyz"), results.back().final_state);
+  }
+  const bool written = write_run_file(spec, results, spec.file);
+  if (!written) {
+    std::fprintf(stderr, "jamflow: %s; data kept in %s.part (not a complete run)\n",
+                 results.back().status.c_str(), spec.file.c_str());
+    return results.back().status.rfind("interrupted", 0) == 0 ? 130 : 1;
+  }
+  for (const auto& r : results) {
+    for (const auto& wmsg : r.summary.warnings)
+      std::fprintf(stderr, "warning: %s\n", wmsg.c_str());
+  }
+  const auto& v = results.front().summary.values;
+  auto get = [&](const char* k) { return v.count(k) ? v.at(k) : std::nan(""); };
+  std::printf("jamflow run: N = %lld, %s, %s, gdot = %g -> %s\n", (long long)spec.n,
+              spec.ensemble->name().c_str(), spec.integrator_kind.c_str(), spec.shear_rate,
+              spec.file.c_str());
+  std::printf("  phi            = %.6f +- %.2e\n", get("phi"), get("phi_err"));
+  std::printf("  pressure       = %.6e +- %.2e\n", get("pressure"), get("pressure_err"));
+  std::printf("  sigma_xy       = %.6e +- %.2e\n", get("sigma_xy"), get("sigma_xy_err"));
+  std::printf("  eta            = %.6e +- %.2e\n", get("eta"), get("eta_err"));
+  std::printf("  mu             = %.6f +- %.2e\n", get("mu"), get("mu_err"));
+  std::printf("  J              = %.6e\n", get("J"));
+  std::printf("  energy_balance = %.4f\n", get("energy_balance"));
+  std::printf("  wall time      = %.2f s\n", results.front().wall_seconds);
+  return 0;
+}
+
+}  // namespace jamflow

@@ -1,0 +1,107 @@
+// The run driver: a validated scene in, a simulation with sampled observables, block-averaged
+// summary and an HDF5 file out. Studies compose runs through this same code.
+#pragma once
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ensembles/ensemble.hpp"
+#include "integrators/integrator.hpp"
+#include "lib/config.hpp"
+#include "lib/model.hpp"
+#include "lib/state.hpp"
+#include "lib/statistics.hpp"
+
+namespace jamflow {
+
+// The scene a bare `jamflow run` uses (also printed by `jamflow scene`).
+extern const char* const kDefaultScene;
+
+// Everything a run needs, validated. Built from a Scene by parse_run_spec().
+struct RunSpec {
+  std::string scene_text;  // canonical TOML after overrides (provenance)
+  // [system]
+  std::int64_t n = 0;
+  double phi = 0.0;
+  double alpha = 2.0;
+  std::uint64_t seed = 1;
+  std::string init;  // extended XYZ path, or empty for random
+  double skin = 0.3;
+  // [shear]
+  double shear_rate = 0.0;
+  // [run]
+  double t_eq = 0.0, t_av = 0.0, sample_every = 0.0;
+  std::int64_t blocks = 20;
+  std::int64_t replicas = 1;
+  int threads = 0;
+  // [output]
+  std::string file = "jamflow.h5";
+  double trajectory_every = 0.0;  // 0: no trajectory file
+  // Parts: the ensemble is stateless and shared; integrators keep history and counters, so
+  // each replica makes its own from the scene.
+  std::shared_ptr<const Ensemble> ensemble;
+  std::string integrator_kind;
+  std::optional<State> init_state;  // loaded from `init`
+  Scene scene;
+  std::unique_ptr<Integrator> make_integrator() const;
+};
+
+// Validates the scene: unknown sections or keys, missing keys and out-of-range values are
+// ConfigErrors naming the key, the value and what is allowed.
+RunSpec parse_run_spec(const Scene& scene);
+
+struct Sample {
+  double time, strain, volume, phi, pressure, sigma_xy, energy, dissipation, piston_dissipation;
+};
+
+struct Series {
+  std::vector<Sample> samples;
+  std::vector<double> column(double Sample::*field) const;
+};
+
+struct Summary {
+  std::map<std::string, double> values;  // name -> value (see write_summary for the names)
+  std::vector<std::string> warnings;
+};
+
+// Block-averaged observables over the window t >= t_eq.
+Summary summarize(const RunSpec& spec, const Series& series);
+
+struct ReplicaResult {
+  Series series;
+  State final_state;
+  Summary summary;
+  std::vector<std::pair<std::string, double>> integrator_stats;
+  double wall_seconds = 0.0;
+  std::uint64_t seed = 0;
+  std::string status = "complete";  // or the failure / interruption message
+};
+
+struct RunOptions {
+  bool quiet = false;
+  std::string label = "run";
+  const std::atomic<bool>* stop = nullptr;  // set asynchronously to interrupt
+};
+
+// Builds the initial state (random or from init), and runs one replica with the given seed.
+// An IntegrationError or an interruption ends the run early: status says why and the series
+// holds everything sampled until then.
+ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOptions& options);
+
+// Initial state for a spec and seed.
+State initial_state(const RunSpec& spec, std::uint64_t seed);
+
+// Writes the HDF5 layout (see README "Output"). With several replicas, the first is written
+// at the top level and all of them under /replicas/<k>. Returns false if any replica failed
+// (then the file is kept as <file>.part with a status attribute).
+bool write_run_file(const RunSpec& spec, const std::vector<ReplicaResult>& replicas,
+                    const std::string& path);
+
+// Runs all replicas of a spec and writes the output. Returns the process exit code.
+int run_and_write(const RunSpec& spec, const RunOptions& options);
+
+}  // namespace jamflow

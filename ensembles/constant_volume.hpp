@@ -1,0 +1,13 @@
+// Constant volume under steady shear (NVgdot): V fixed, phi given, P_hat measured (SPEC §2).
+#pragma once
+#include "ensembles/ensemble.hpp"
+
+namespace jamflow {
+
+class ConstantVolume final : public Ensemble {
+ public:
+  explicit ConstantVolume(double shear_rate) : Ensemble(shear_rate) {}
+  std::string name() const override { return "constant_volume"; }
+};
+
+}  // namespace jamflow

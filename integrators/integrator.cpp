@@ -1,0 +1,46 @@
+// Integrator factory and shared building blocks.
+#include "integrators/integrator.hpp"
+
+#include <cmath>
+
+#include "integrators/euler.hpp"
+#include "lib/error.hpp"
+
+namespace jamflow {
+
+void move_cell(State& state, double dstrain, double new_volume) {
+  state.box.strain += dstrain;
+  if (new_volume != state.box.volume())
+    state.box.set_volume(new_volume);
+}
+
+void drift_particles(State& state, const std::vector<double>& force, double dt) {
+  const std::size_t n = state.size();
+  const Eigen::Matrix3d hi = state.box.h_inv();
+  const double a = dt / kXiS;
+  const double ixx = hi(0, 0) * a, ixy = hi(0, 1) * a, iyy = hi(1, 1) * a, izz = hi(2, 2) * a;
+  double* x = state.x();
+  double* y = state.y();
+  double* z = state.z();
+  const double* fx = force.data();
+  const double* fy = fx + n;
+  const double* fz = fx + 2 * n;
+#pragma omp simd
+  for (std::size_t i = 0; i < n; ++i) {
+    x[i] += ixx * fx[i] + ixy * fy[i];
+    y[i] += iyy * fy[i];
+    z[i] += izz * fz[i];
+  }
+}
+
+std::unique_ptr<Integrator> make_integrator(ConfigSection& section) {
+  const std::string kind = section.choice("kind", {"euler"});
+  std::unique_ptr<Integrator> integ;
+  if (kind == "euler") {
+    integ = std::make_unique<Euler>(section.number("dt", Range::positive()));
+  }
+  section.finish();
+  return integ;
+}
+
+}  // namespace jamflow

@@ -1,0 +1,50 @@
+// Integrators own time: each advances the Model to an exact t_end using the rates that the
+// Ensemble supplies. Equations (SPEC §2), in scaled coordinates s = h^-1 r:
+//   ds/dt = h^-1 F / xi_s,   d(strain)/dt = gdot,   dV/dt = ensemble.volume_rate(P_hat)
+// The affine shear and dilation are carried by the cell h, so r = h s follows
+//   dr/dt = F / xi_s + gdot y e_x (+ the affine dilation at constant pressure).
+#pragma once
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "ensembles/ensemble.hpp"
+#include "lib/config.hpp"
+#include "lib/model.hpp"
+
+namespace jamflow {
+
+class Integrator {
+ public:
+  virtual ~Integrator() = default;
+
+  virtual std::string name() const = 0;  // the scene's `kind`
+  // Declared convergence order in the step size (tests measure it).
+  virtual int order() const = 0;
+
+  // Advance to exactly t_end (model.state().time == t_end on return).
+  virtual void advance(Model& model, const Ensemble& ensemble, double t_end) = 0;
+
+  // Drop any history (after a discrete change such as a remap or a new state).
+  virtual void reset() {}
+
+  // Counters for the output summary (steps, evaluations, failures, ...).
+  virtual std::vector<std::pair<std::string, double>> statistics() const { return {}; }
+
+  // A characteristic step for progress reporting and sampling checks (0 if adaptive).
+  virtual double nominal_dt() const { return 0.0; }
+};
+
+// Builds the integrator named by [integrator] kind, reading only that kind's keys.
+std::unique_ptr<Integrator> make_integrator(ConfigSection& section);
+
+// Shared building blocks --------------------------------------------------------------
+
+// Moves the cell: strain += dstrain and V -> new_volume (affine: scaled coordinates fixed).
+void move_cell(State& state, double dstrain, double new_volume);
+
+// Particle drift with the forces of `eval`: s += dt h^-1 F / xi_s, with h the current cell.
+void drift_particles(State& state, const std::vector<double>& force, double dt);
+
+}  // namespace jamflow

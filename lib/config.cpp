@@ -1,0 +1,261 @@
+// Scene parsing and validation.
+#include "lib/config.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "lib/error.hpp"
+
+namespace jamflow {
+
+std::string fmt(double v) {
+  char buf[64];
+  auto [end, ec] = std::to_chars(buf, buf + sizeof buf, v);
+  return ec == std::errc() ? std::string(buf, end) : std::to_string(v);
+}
+
+bool Range::contains(double v) const {
+  if (!std::isfinite(v))
+    return false;
+  if (lo_open ? !(v > lo) : !(v >= lo))
+    return false;
+  if (hi_open ? !(v < hi) : !(v <= hi))
+    return false;
+  return true;
+}
+
+std::string Range::text() const {
+  const bool no_lo = std::isinf(lo), no_hi = std::isinf(hi);
+  if (no_lo && no_hi)
+    return "any finite number";
+  if (no_hi)
+    return std::string(lo_open ? "> " : ">= ") + fmt(lo);
+  if (no_lo)
+    return std::string(hi_open ? "< " : "<= ") + fmt(hi);
+  return std::string(lo_open ? "(" : "[") + fmt(lo) + ", " + fmt(hi) + (hi_open ? ")" : "]");
+}
+
+ConfigSection::ConfigSection(std::string name, const toml::table* table)
+    : name_(std::move(name)), table_(table) {}
+
+const toml::node* ConfigSection::node(std::string_view key) const {
+  return table_ ? table_->get(key) : nullptr;
+}
+
+bool ConfigSection::has(std::string_view key) const {
+  return node(key) != nullptr;
+}
+
+std::string ConfigSection::label(std::string_view key) const {
+  return "[" + name_ + "] " + std::string(key);
+}
+
+namespace {
+std::string show(const toml::node& n) {
+  std::ostringstream os;
+  if (n.is_string()) {
+    os << '"' << n.as_string()->get() << '"';
+  } else if (n.is_table()) {
+    os << "{...}";
+  } else if (n.is_array()) {
+    os << "[...]";
+  } else {
+    n.visit([&](auto&& v) {
+      if constexpr (toml::is_number<decltype(v)> || toml::is_boolean<decltype(v)>)
+        os << v;
+    });
+  }
+  return os.str();
+}
+}  // namespace
+
+double ConfigSection::number(std::string_view key, Range range) {
+  const toml::node* n = node(key);
+  if (!n)
+    throw ConfigError("missing key " + label(key) + "; allowed " + range.text());
+  used_.emplace(key);
+  if (!n->is_number()) {
+    throw ConfigError(label(key) + " = " + show(*n) + " is not a number; allowed " + range.text());
+  }
+  const double v = n->value<double>().value();
+  if (!range.contains(v)) {
+    throw ConfigError(label(key) + " = " + fmt(v) + " is out of range; allowed " + range.text());
+  }
+  return v;
+}
+
+double ConfigSection::number(std::string_view key, double fallback, Range range) {
+  return has(key) ? number(key, range) : fallback;
+}
+
+std::int64_t ConfigSection::integer(std::string_view key, std::int64_t lo, std::int64_t hi) {
+  const toml::node* n = node(key);
+  const std::string allowed =
+      "an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
+  if (!n)
+    throw ConfigError("missing key " + label(key) + "; allowed " + allowed);
+  used_.emplace(key);
+  std::int64_t v = 0;
+  if (n->is_integer()) {
+    v = n->as_integer()->get();
+  } else if (n->is_floating_point() &&
+             std::nearbyint(n->as_floating_point()->get()) == n->as_floating_point()->get() &&
+             std::abs(n->as_floating_point()->get()) < 9e15) {
+    v = static_cast<std::int64_t>(n->as_floating_point()->get());
+  } else {
+    throw ConfigError(label(key) + " = " + show(*n) + " is not an integer; allowed " + allowed);
+  }
+  if (v < lo || v > hi) {
+    throw ConfigError(label(key) + " = " + std::to_string(v) + " is out of range; allowed " +
+                      allowed);
+  }
+  return v;
+}
+
+std::int64_t ConfigSection::integer(std::string_view key, std::int64_t fallback, std::int64_t lo,
+                                    std::int64_t hi) {
+  return has(key) ? integer(key, lo, hi) : fallback;
+}
+
+std::string ConfigSection::choice(std::string_view key, const std::vector<std::string>& allowed) {
+  std::string list;
+  for (const auto& a : allowed)
+    list += (list.empty() ? "\"" : ", \"") + a + "\"";
+  const toml::node* n = node(key);
+  if (!n)
+    throw ConfigError("missing key " + label(key) + "; allowed " + list);
+  used_.emplace(key);
+  if (!n->is_string()) {
+    throw ConfigError(label(key) + " = " + show(*n) + " is not a string; allowed " + list);
+  }
+  const std::string v = n->as_string()->get();
+  for (const auto& a : allowed) {
+    if (a == v)
+      return v;
+  }
+  throw ConfigError(label(key) + " = \"" + v + "\" is not allowed; allowed " + list);
+}
+
+std::string ConfigSection::choice(std::string_view key, std::string_view fallback,
+                                  const std::vector<std::string>& allowed) {
+  return has(key) ? choice(key, allowed) : std::string(fallback);
+}
+
+std::string ConfigSection::text(std::string_view key, std::string_view fallback) {
+  const toml::node* n = node(key);
+  if (!n)
+    return std::string(fallback);
+  used_.emplace(key);
+  if (!n->is_string()) {
+    throw ConfigError(label(key) + " = " + show(*n) + " is not a string; allowed a quoted path");
+  }
+  return n->as_string()->get();
+}
+
+bool ConfigSection::flag(std::string_view key, bool fallback) {
+  const toml::node* n = node(key);
+  if (!n)
+    return fallback;
+  used_.emplace(key);
+  if (!n->is_boolean()) {
+    throw ConfigError(label(key) + " = " + show(*n) + " is not a boolean; allowed true, false");
+  }
+  return n->as_boolean()->get();
+}
+
+void ConfigSection::finish() const {
+  if (!table_)
+    return;
+  for (const auto& [k, v] : *table_) {
+    if (!used_.contains(k.str())) {
+      std::string list;
+      for (const auto& u : used_)
+        list += (list.empty() ? "" : ", ") + u;
+      throw ConfigError("unknown key " + label(k.str()) + " = " + show(v) +
+                        "; keys used in this section here: " + (list.empty() ? "none" : list));
+    }
+  }
+}
+
+Scene Scene::parse(std::string_view text, std::string_view source) {
+  Scene s;
+  s.source_ = std::string(source);
+  try {
+    s.table_ = toml::parse(text, source);
+  } catch (const toml::parse_error& e) {
+    throw ConfigError(std::string(source) + ":" + std::to_string(e.source().begin.line) + ": " +
+                      std::string(e.description()));
+  }
+  return s;
+}
+
+Scene Scene::load(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw IoError("cannot open scene file '" + path + "'");
+  std::ostringstream buf;
+  buf << in.rdbuf();
+  return parse(buf.str(), path);
+}
+
+void Scene::set(std::string_view assignment) {
+  const auto eq = assignment.find('=');
+  const auto dot = assignment.substr(0, eq).find('.');
+  if (eq == std::string_view::npos || dot == std::string_view::npos || dot == 0 || dot + 1 >= eq) {
+    throw ConfigError("--set '" + std::string(assignment) +
+                      "' must look like section.key=value (e.g. shear.rate=1e-4)");
+  }
+  const std::string section(assignment.substr(0, dot));
+  const std::string key(assignment.substr(dot + 1, eq - dot - 1));
+  const std::string value(assignment.substr(eq + 1));
+  toml::table parsed;
+  try {
+    parsed = toml::parse("v = " + value);
+  } catch (const toml::parse_error&) {
+    parsed = toml::table{{"v", value}};  // bare word: a string
+  }
+  toml::table* sec = table_[section].as_table();
+  if (!sec) {
+    if (table_.contains(section))
+      throw ConfigError("--set: '" + section + "' is not a section");
+    table_.insert(section, toml::table{});
+    sec = table_[section].as_table();
+  }
+  sec->insert_or_assign(key, *parsed.get("v"));
+}
+
+void Scene::check_sections(const std::vector<std::string>& allowed) const {
+  for (const auto& [k, v] : table_) {
+    bool ok = false;
+    for (const auto& a : allowed)
+      ok = ok || a == k.str();
+    std::string list;
+    for (const auto& a : allowed)
+      list += (list.empty() ? "[" : ", [") + a + "]";
+    if (!ok)
+      throw ConfigError("unknown section [" + std::string(k.str()) + "]; allowed " + list);
+    if (!v.is_table()) {
+      throw ConfigError("'" + std::string(k.str()) + "' must be a section [" +
+                        std::string(k.str()) + "]");
+    }
+  }
+}
+
+bool Scene::has_section(const std::string& name) const {
+  return table_.contains(name);
+}
+
+ConfigSection Scene::section(const std::string& name) const {
+  const toml::node* n = table_.get(name);
+  return ConfigSection(name, n ? n->as_table() : nullptr);
+}
+
+std::string Scene::text() const {
+  std::ostringstream os;
+  os << table_ << "\n";
+  return os.str();
+}
+
+}  // namespace jamflow

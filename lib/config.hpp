@@ -1,0 +1,85 @@
+// Scene files: TOML parsed and validated in one place into plain numbers.
+//
+// Every read goes through a ConfigSection, which checks type and range and remembers which
+// keys were used; finish() turns any key nobody read into an error. So a scene gets exactly
+// the parts it names, and a misspelt key never passes silently.
+#pragma once
+#include <cstdint>
+#include <limits>
+#include <set>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <toml++/toml.h>
+
+namespace jamflow {
+
+struct Range {
+  double lo = -std::numeric_limits<double>::infinity();
+  double hi = std::numeric_limits<double>::infinity();
+  bool lo_open = false;  // lo excluded
+  bool hi_open = false;  // hi excluded
+  static Range positive() { return {0.0, std::numeric_limits<double>::infinity(), true, false}; }
+  static Range non_negative() { return {0.0, std::numeric_limits<double>::infinity()}; }
+  bool contains(double v) const;
+  std::string text() const;
+};
+
+class ConfigSection {
+ public:
+  ConfigSection(std::string name, const toml::table* table);
+
+  const std::string& name() const { return name_; }
+  bool present() const { return table_ != nullptr; }
+  bool has(std::string_view key) const;
+
+  double number(std::string_view key, Range range);
+  double number(std::string_view key, double fallback, Range range);
+  std::int64_t integer(std::string_view key, std::int64_t lo, std::int64_t hi);
+  std::int64_t integer(std::string_view key, std::int64_t fallback, std::int64_t lo,
+                       std::int64_t hi);
+  std::string choice(std::string_view key, const std::vector<std::string>& allowed);
+  std::string choice(std::string_view key, std::string_view fallback,
+                     const std::vector<std::string>& allowed);
+  std::string text(std::string_view key, std::string_view fallback);
+  bool flag(std::string_view key, bool fallback);
+
+  // Error for any key that was never read.
+  void finish() const;
+
+  // "[section] key = value": how errors name a setting.
+  std::string label(std::string_view key) const;
+
+ private:
+  const toml::node* node(std::string_view key) const;
+  std::string name_;
+  const toml::table* table_;
+  std::set<std::string, std::less<>> used_;
+};
+
+class Scene {
+ public:
+  // Parses TOML text; errors name the source and the line.
+  static Scene parse(std::string_view text, std::string_view source);
+  static Scene load(const std::string& path);
+
+  // Applies "section.key=value" (the value is read as TOML, else as a string).
+  void set(std::string_view assignment);
+  // Sections must be among these; each gets its ConfigSection.
+  void check_sections(const std::vector<std::string>& allowed) const;
+  ConfigSection section(const std::string& name) const;
+  bool has_section(const std::string& name) const;
+
+  std::string text() const;  // canonical TOML after overrides: what goes into outputs
+  const std::string& source() const { return source_; }
+
+ private:
+  toml::table table_;
+  std::string source_;
+};
+
+// Formats a double for messages (shortest round-trip form).
+std::string fmt(double v);
+
+}  // namespace jamflow

@@ -1,0 +1,54 @@
+// One pass over contacts that yields forces, potential energy and the virial tensor
+// (SPEC §3): W_ab = sum_{i<j} r_ij,a f_ij,b with r_ij = r_i - r_j (minimum image) and f_ij the
+// force on i from j. Then Pi = W / V, P_hat = tr(Pi) / 3, sigma_xy = -Pi_xy.
+#pragma once
+#include <Eigen/Dense>
+#include <cstddef>
+#include <vector>
+
+#include "lib/neighbour_list.hpp"
+#include "lib/potential.hpp"
+#include "lib/state.hpp"
+
+namespace jamflow {
+
+struct ForceResult {
+  std::vector<double> force;  // real-space forces, SoA like State::pos
+  double energy = 0.0;
+  Eigen::Matrix3d virial = Eigen::Matrix3d::Zero();
+  std::size_t contacts = 0;
+};
+
+class ForceField {
+ public:
+  // alpha_r in [1.2, 3]; threads <= 0 means all OpenMP threads available.
+  explicit ForceField(double alpha_r, int threads = 0);
+
+  double alpha() const { return alpha_; }
+  int threads() const { return threads_; }
+
+  // Fast path: over the neighbour list (which must be valid for the state).
+  void compute(const State& state, const NeighbourList& list, ForceResult& out) const;
+  // Reference path: every pair, minimum image, no list. O(N^2), for tests.
+  void compute_all_pairs(const State& state, ForceResult& out) const;
+
+  // out = -H v: the change of the forces for a real-space displacement field v (SoA), i.e.
+  // the Hessian-vector product of the potential energy, over the neighbour list.
+  void hessian_product(const State& state, const NeighbourList& list, const double* v,
+                       double* out) const;
+
+ private:
+  template <class Pair>
+  void compute_impl(const Pair& pair, const State& state, const NeighbourList& list,
+                    ForceResult& out) const;
+  template <class Pair>
+  void hessian_impl(const Pair& pair, const State& state, const NeighbourList& list,
+                    const double* v, double* out) const;
+
+  double alpha_;
+  bool harmonic_;
+  int threads_;
+  mutable std::vector<std::vector<double>> buffers_;  // per-thread force accumulators
+};
+
+}  // namespace jamflow

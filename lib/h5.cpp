@@ -1,0 +1,599 @@
+// HDF5 writer and reader (lib/h5.hpp) over the C API: every return code is checked here, at
+// the boundary, and turned into a one-line IoError naming the file and the object.
+#include "lib/h5.hpp"
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <utility>
+
+#include "lib/error.hpp"
+
+namespace jamflow {
+
+namespace {
+
+// HDF5 prints its whole error stack to stderr by default; users should see only our one-line
+// errors. The setting is per thread in thread-safe builds, hence thread_local.
+void silence_hdf5() {
+  thread_local const bool silenced = [] {
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    return true;
+  }();
+  (void)silenced;
+}
+
+// The most specific message on HDF5's error stack (e.g. "unable to open file: ... errno = 2,
+// error message = 'No such file or directory'"). Must be called before any other HDF5 call,
+// since each API call clears the stack.
+std::string hdf5_reason() {
+  std::string reason;
+  auto walk = [](unsigned n, const H5E_error2_t* err, void* data) -> herr_t {
+    auto* out = static_cast<std::string*>(data);
+    if (n == 0 && err->desc != nullptr)
+      *out = err->desc;
+    return 0;
+  };
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, walk, &reason);
+  H5Eclear2(H5E_DEFAULT);
+  // File-open failures embed the system's reason among driver flags; the reason is what users
+  // can act on.
+  const std::string marker = "error message = '";
+  const std::size_t start = reason.find(marker);
+  if (start != std::string::npos) {
+    const std::size_t end = reason.find('\'', start + marker.size());
+    if (end != std::string::npos)
+      return reason.substr(start + marker.size(), end - start - marker.size());
+  }
+  return reason.empty() ? "HDF5 error" : reason;
+}
+
+// Owns one HDF5 identifier; the close function depends on the kind of object.
+class Handle {
+ public:
+  Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  ~Handle() {
+    if (id_ >= 0)
+      close_(id_);
+  }
+  Handle(Handle&& other) noexcept
+      : id_(std::exchange(other.id_, H5I_INVALID_HID)), close_(other.close_) {}
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  Handle& operator=(Handle&&) = delete;
+  hid_t get() const { return id_; }
+  bool ok() const { return id_ >= 0; }
+
+ private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
+};
+
+std::string quoted(const std::string& s) {
+  return "'" + s + "'";
+}
+
+// Link-creation properties that make "/a/b/c" create /a and /a/b on the way.
+Handle intermediate_lcpl() {
+  Handle lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose);
+  if (!lcpl.ok() || H5Pset_create_intermediate_group(lcpl.get(), 1) < 0) {
+    throw IoError("HDF5: cannot create a link-creation property list: " + hdf5_reason());
+  }
+  return lcpl;
+}
+
+// Whether every component of an absolute or root-relative path exists (H5Lexists fails, rather
+// than returning false, when an intermediate component is missing).
+bool link_exists(hid_t file, const std::string& path) {
+  std::size_t pos = 0;
+  while (pos < path.size() && path[pos] == '/')
+    ++pos;
+  if (pos == path.size())
+    return true;  // the root
+  while (true) {
+    const std::size_t slash = path.find('/', pos);
+    const std::string prefix = path.substr(0, slash);
+    if (H5Lexists(file, prefix.c_str(), H5P_DEFAULT) <= 0) {
+      H5Eclear2(H5E_DEFAULT);
+      return false;
+    }
+    if (slash == std::string::npos)
+      return true;
+    pos = slash + 1;
+    while (pos < path.size() && path[pos] == '/')
+      ++pos;
+    if (pos == path.size())
+      return true;
+  }
+}
+
+// H5Oget_info's signature differs between HDF5 1.10 and 1.12; the identifier type does not.
+bool is_group(hid_t file, const std::string& path) {
+  const Handle obj(H5Oopen(file, path.c_str(), H5P_DEFAULT), H5Oclose);
+  if (!obj.ok())
+    H5Eclear2(H5E_DEFAULT);
+  return obj.ok() && H5Iget_type(obj.get()) == H5I_GROUP;
+}
+
+// HDF5's own message for "/x/y" below a dataset /x is "message type not found"; name the
+// culprit instead.
+void require_group_parents(hid_t file, const std::string& file_path, const std::string& path) {
+  std::size_t slash = path.find('/', path.find_first_not_of('/'));
+  while (slash != std::string::npos) {
+    const std::string prefix = path.substr(0, slash);
+    if (!link_exists(file, prefix))
+      return;  // created as an intermediate group
+    if (!is_group(file, prefix)) {
+      throw IoError(file_path + ": cannot create " + quoted(path) + ": " + quoted(prefix) +
+                    " is not a group");
+    }
+    slash = path.find('/', slash + 1);
+  }
+}
+
+struct StringVec {
+  std::vector<std::string> names;
+};
+
+// Iteration callbacks must not throw through the C library: copy the name, report failure by
+// return code.
+herr_t collect_link(hid_t, const char* name, const H5L_info_t*, void* data) noexcept {
+  try {
+    static_cast<StringVec*>(data)->names.emplace_back(name);
+    return 0;
+  } catch (...) {
+    return -1;
+  }
+}
+
+herr_t collect_attr(hid_t, const char* name, const H5A_info_t*, void* data) noexcept {
+  try {
+    static_cast<StringVec*>(data)->names.emplace_back(name);
+    return 0;
+  } catch (...) {
+    return -1;
+  }
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+H5Writer::H5Writer(std::string path) : path_(std::move(path)) {
+  silence_hdf5();
+  const std::string part = part_path();
+  file_ = H5Fcreate(part.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  if (file_ < 0)
+    throw IoError(part + ": cannot create HDF5 file: " + hdf5_reason());
+}
+
+H5Writer::~H5Writer() {
+  if (file_ >= 0)
+    H5Fclose(file_);
+  if (!done_)
+    std::remove(part_path().c_str());
+}
+
+namespace {
+
+template <class T>
+void write_dataset(hid_t file, const std::string& file_path, const std::string& path,
+                   const std::vector<T>& data, const std::vector<std::size_t>& dims_in,
+                   hid_t file_type, hid_t mem_type) {
+  std::vector<hsize_t> dims;
+  if (dims_in.empty()) {
+    dims.push_back(data.size());
+  } else {
+    std::size_t product = 1;
+    std::string shape;
+    for (std::size_t d : dims_in) {
+      product *= d;
+      dims.push_back(d);
+      shape += (shape.empty() ? "" : "x") + std::to_string(d);
+    }
+    if (product != data.size()) {
+      throw IoError(file_path + ": dataset " + quoted(path) + ": dims " + shape + " hold " +
+                    std::to_string(product) + " values, data has " + std::to_string(data.size()));
+    }
+  }
+  require_group_parents(file, file_path, path);
+  const Handle lcpl = intermediate_lcpl();
+  const Handle space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr),
+                     H5Sclose);
+  if (!space.ok()) {
+    throw IoError(file_path + ": dataset " + quoted(path) + ": " + hdf5_reason());
+  }
+  const Handle dset(
+      H5Dcreate2(file, path.c_str(), file_type, space.get(), lcpl.get(), H5P_DEFAULT, H5P_DEFAULT),
+      H5Dclose);
+  if (!dset.ok()) {
+    throw IoError(file_path + ": cannot create dataset " + quoted(path) + ": " + hdf5_reason());
+  }
+  if (!data.empty() &&
+      H5Dwrite(dset.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data.data()) < 0) {
+    throw IoError(file_path + ": cannot write dataset " + quoted(path) + ": " + hdf5_reason());
+  }
+}
+
+}  // namespace
+
+void H5Writer::dataset(const std::string& path, const std::vector<double>& data,
+                       const std::vector<std::size_t>& dims) {
+  silence_hdf5();
+  if (done_ || file_ < 0)
+    throw IoError(part_path() + ": dataset " + quoted(path) + ": file already closed");
+  write_dataset(file_, part_path(), path, data, dims, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE);
+}
+
+void H5Writer::dataset(const std::string& path, const std::vector<std::int64_t>& data,
+                       const std::vector<std::size_t>& dims) {
+  silence_hdf5();
+  if (done_ || file_ < 0)
+    throw IoError(part_path() + ": dataset " + quoted(path) + ": file already closed");
+  write_dataset(file_, part_path(), path, data, dims, H5T_STD_I64LE, H5T_NATIVE_INT64);
+}
+
+void H5Writer::group(const std::string& path) {
+  silence_hdf5();
+  if (done_ || file_ < 0)
+    throw IoError(part_path() + ": group " + quoted(path) + ": file already closed");
+  // Idempotent, so that callers need not track which groups exist already.
+  if (link_exists(file_, path)) {
+    if (!is_group(file_, path)) {
+      throw IoError(part_path() + ": " + quoted(path) + " exists and is not a group");
+    }
+    return;
+  }
+  require_group_parents(file_, part_path(), path);
+  const Handle lcpl = intermediate_lcpl();
+  const Handle g(H5Gcreate2(file_, path.c_str(), lcpl.get(), H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+  if (!g.ok()) {
+    throw IoError(part_path() + ": cannot create group " + quoted(path) + ": " + hdf5_reason());
+  }
+}
+
+namespace {
+
+// Writes (or replaces) a scalar attribute; `value` points at the memory representation.
+void write_attr(hid_t file, const std::string& file_path, const std::string& object,
+                const std::string& name, hid_t file_type, hid_t mem_type, const void* value) {
+  const std::string what = "attribute " + quoted(name) + " on " + quoted(object);
+  if (!link_exists(file, object)) {
+    throw IoError(file_path + ": cannot write " + what + ": no such object");
+  }
+  const Handle obj(H5Oopen(file, object.c_str(), H5P_DEFAULT), H5Oclose);
+  if (!obj.ok())
+    throw IoError(file_path + ": cannot write " + what + ": " + hdf5_reason());
+  const htri_t exists = H5Aexists(obj.get(), name.c_str());
+  if (exists < 0 || (exists > 0 && H5Adelete(obj.get(), name.c_str()) < 0)) {
+    throw IoError(file_path + ": cannot replace " + what + ": " + hdf5_reason());
+  }
+  const Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+  if (!space.ok())
+    throw IoError(file_path + ": " + what + ": " + hdf5_reason());
+  const Handle attr(
+      H5Acreate2(obj.get(), name.c_str(), file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT),
+      H5Aclose);
+  if (!attr.ok())
+    throw IoError(file_path + ": cannot create " + what + ": " + hdf5_reason());
+  if (H5Awrite(attr.get(), mem_type, value) < 0) {
+    throw IoError(file_path + ": cannot write " + what + ": " + hdf5_reason());
+  }
+}
+
+// Variable-length UTF-8: what h5py reads back as str (fixed-length would come back as bytes).
+Handle utf8_string_type(const std::string& file_path) {
+  Handle t(H5Tcopy(H5T_C_S1), H5Tclose);
+  if (!t.ok() || H5Tset_size(t.get(), H5T_VARIABLE) < 0 ||
+      H5Tset_cset(t.get(), H5T_CSET_UTF8) < 0) {
+    throw IoError(file_path + ": cannot make a string type: " + hdf5_reason());
+  }
+  return t;
+}
+
+}  // namespace
+
+void H5Writer::attr(const std::string& object, const std::string& name, double value) {
+  silence_hdf5();
+  if (done_ || file_ < 0)
+    throw IoError(part_path() + ": attribute " + quoted(name) + ": file already closed");
+  write_attr(file_, part_path(), object, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &value);
+}
+
+void H5Writer::attr(const std::string& object, const std::string& name, std::int64_t value) {
+  silence_hdf5();
+  if (done_ || file_ < 0)
+    throw IoError(part_path() + ": attribute " + quoted(name) + ": file already closed");
+  write_attr(file_, part_path(), object, name, H5T_STD_I64LE, H5T_NATIVE_INT64, &value);
+}
+
+void H5Writer::attr(const std::string& object, const std::string& name, const std::string& value) {
+  silence_hdf5();
+  if (done_ || file_ < 0)
+    throw IoError(part_path() + ": attribute " + quoted(name) + ": file already closed");
+  const Handle type = utf8_string_type(part_path());
+  const char* c_str = value.c_str();
+  write_attr(file_, part_path(), object, name, type.get(), type.get(), &c_str);
+}
+
+void H5Writer::commit() {
+  silence_hdf5();
+  if (done_ || file_ < 0)
+    throw IoError(part_path() + ": commit: file already closed");
+  const hid_t file = std::exchange(file_, -1);
+  const bool flushed = H5Fflush(file, H5F_SCOPE_GLOBAL) >= 0;
+  std::string reason = flushed ? "" : hdf5_reason();
+  const bool closed = H5Fclose(file) >= 0;
+  if (!closed && reason.empty())
+    reason = hdf5_reason();
+  // An unflushed file is not trustworthy: leave done_ false so the destructor removes it.
+  if (!flushed || !closed)
+    throw IoError(part_path() + ": cannot close HDF5 file: " + reason);
+  const std::string part = part_path();
+  // The data is complete even if the rename fails; keep it rather than delete it.
+  done_ = true;
+  if (std::rename(part.c_str(), path_.c_str()) != 0) {
+    throw IoError("cannot rename " + part + " to " + path_ + ": " + std::strerror(errno) +
+                  " (the data is kept in " + part + ")");
+  }
+}
+
+void H5Writer::keep_partial(const std::string& status) {
+  silence_hdf5();
+  if (done_ || file_ < 0)
+    throw IoError(part_path() + ": keep_partial: file already closed");
+  // Keep the file whatever happens below: it is the only record of the failed run.
+  done_ = true;
+  std::string error;
+  try {
+    const Handle type = utf8_string_type(part_path());
+    const char* c_str = status.c_str();
+    write_attr(file_, part_path(), "/", "status", type.get(), type.get(), &c_str);
+  } catch (const IoError& e) {
+    error = e.what();
+  }
+  const hid_t file = std::exchange(file_, -1);
+  if (H5Fclose(file) < 0 && error.empty()) {
+    error = part_path() + ": cannot close HDF5 file: " + hdf5_reason();
+  }
+  if (!error.empty())
+    throw IoError(error);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+H5Reader::H5Reader(const std::string& path) : path_(path) {
+  silence_hdf5();
+  file_ = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (file_ < 0)
+    throw IoError(path + ": cannot open HDF5 file: " + hdf5_reason());
+}
+
+H5Reader::~H5Reader() {
+  if (file_ >= 0)
+    H5Fclose(file_);
+}
+
+bool H5Reader::exists(const std::string& path) const {
+  silence_hdf5();
+  return link_exists(file_, path);
+}
+
+bool H5Reader::has_attr(const std::string& object, const std::string& name) const {
+  silence_hdf5();
+  if (!link_exists(file_, object))
+    return false;
+  const htri_t r = H5Aexists_by_name(file_, object.c_str(), name.c_str(), H5P_DEFAULT);
+  if (r < 0) {
+    throw IoError(path_ + ": cannot query attribute " + quoted(name) + " on " + quoted(object) +
+                  ": " + hdf5_reason());
+  }
+  return r > 0;
+}
+
+namespace {
+
+Handle open_dataset(hid_t file, const std::string& file_path, const std::string& path) {
+  if (!link_exists(file, path))
+    throw IoError(file_path + ": no dataset " + quoted(path));
+  Handle d(H5Dopen2(file, path.c_str(), H5P_DEFAULT), H5Dclose);
+  if (!d.ok()) {
+    throw IoError(file_path + ": cannot open dataset " + quoted(path) + ": " + hdf5_reason());
+  }
+  return d;
+}
+
+std::vector<hsize_t> extent(hid_t space, const std::string& what) {
+  const int rank = H5Sget_simple_extent_ndims(space);
+  if (rank < 0)
+    throw IoError(what + ": cannot read the shape: " + hdf5_reason());
+  std::vector<hsize_t> dims(static_cast<std::size_t>(rank));
+  if (rank > 0 && H5Sget_simple_extent_dims(space, dims.data(), nullptr) < 0) {
+    throw IoError(what + ": cannot read the shape: " + hdf5_reason());
+  }
+  return dims;
+}
+
+// Reads a whole dataset converted to T; `accept` says which stored type classes are allowed
+// (an integer dataset reads exactly as doubles, a floating one would be truncated to ints).
+template <class T>
+std::vector<T> read_dataset(hid_t file, const std::string& file_path, const std::string& path,
+                            hid_t mem_type, bool accept_float) {
+  const std::string what = file_path + ": dataset " + quoted(path);
+  const Handle d = open_dataset(file, file_path, path);
+  const Handle type(H5Dget_type(d.get()), H5Tclose);
+  const H5T_class_t cls = type.ok() ? H5Tget_class(type.get()) : H5T_NO_CLASS;
+  if (cls != H5T_INTEGER && !(accept_float && cls == H5T_FLOAT)) {
+    throw IoError(what + " has the wrong type (want " + (accept_float ? "a number" : "an integer") +
+                  ")");
+  }
+  const Handle space(H5Dget_space(d.get()), H5Sclose);
+  if (!space.ok())
+    throw IoError(what + ": " + hdf5_reason());
+  const hssize_t count = H5Sget_simple_extent_npoints(space.get());
+  if (count < 0)
+    throw IoError(what + ": cannot read the size: " + hdf5_reason());
+  std::vector<T> out(static_cast<std::size_t>(count));
+  if (count > 0 && H5Dread(d.get(), mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.data()) < 0) {
+    throw IoError(what + ": cannot read: " + hdf5_reason());
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<double> H5Reader::read_doubles(const std::string& path) const {
+  silence_hdf5();
+  return read_dataset<double>(file_, path_, path, H5T_NATIVE_DOUBLE, true);
+}
+
+std::vector<std::int64_t> H5Reader::read_ints(const std::string& path) const {
+  silence_hdf5();
+  return read_dataset<std::int64_t>(file_, path_, path, H5T_NATIVE_INT64, false);
+}
+
+std::vector<std::size_t> H5Reader::dims(const std::string& path) const {
+  silence_hdf5();
+  const Handle d = open_dataset(file_, path_, path);
+  const Handle space(H5Dget_space(d.get()), H5Sclose);
+  const std::string what = path_ + ": dataset " + quoted(path);
+  if (!space.ok())
+    throw IoError(what + ": " + hdf5_reason());
+  std::vector<std::size_t> out;
+  for (hsize_t n : extent(space.get(), what))
+    out.push_back(static_cast<std::size_t>(n));
+  return out;
+}
+
+namespace {
+
+// Opens a single-valued attribute.
+Handle open_attr(hid_t file, const std::string& file_path, const std::string& object,
+                 const std::string& name) {
+  const std::string what = file_path + ": attribute " + quoted(name) + " on " + quoted(object);
+  if (!link_exists(file, object))
+    throw IoError(file_path + ": no object " + quoted(object) + " (looking for attribute " +
+                  quoted(name) + ")");
+  const htri_t exists = H5Aexists_by_name(file, object.c_str(), name.c_str(), H5P_DEFAULT);
+  if (exists <= 0)
+    throw IoError(what + " does not exist");
+  Handle a(H5Aopen_by_name(file, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  if (!a.ok())
+    throw IoError(what + ": cannot open: " + hdf5_reason());
+  const Handle space(H5Aget_space(a.get()), H5Sclose);
+  if (!space.ok() || H5Sget_simple_extent_npoints(space.get()) != 1) {
+    throw IoError(what + " is not a single value");
+  }
+  return a;
+}
+
+template <class T>
+T read_number_attr(hid_t file, const std::string& file_path, const std::string& object,
+                   const std::string& name, hid_t mem_type, bool accept_float) {
+  const std::string what = file_path + ": attribute " + quoted(name) + " on " + quoted(object);
+  const Handle a = open_attr(file, file_path, object, name);
+  const Handle type(H5Aget_type(a.get()), H5Tclose);
+  const H5T_class_t cls = type.ok() ? H5Tget_class(type.get()) : H5T_NO_CLASS;
+  if (cls != H5T_INTEGER && !(accept_float && cls == H5T_FLOAT)) {
+    throw IoError(what + " has the wrong type (want " + (accept_float ? "a number" : "an integer") +
+                  ")");
+  }
+  T value{};
+  if (H5Aread(a.get(), mem_type, &value) < 0) {
+    throw IoError(what + ": cannot read: " + hdf5_reason());
+  }
+  return value;
+}
+
+}  // namespace
+
+double H5Reader::attr_double(const std::string& object, const std::string& name) const {
+  silence_hdf5();
+  return read_number_attr<double>(file_, path_, object, name, H5T_NATIVE_DOUBLE, true);
+}
+
+std::int64_t H5Reader::attr_int(const std::string& object, const std::string& name) const {
+  silence_hdf5();
+  return read_number_attr<std::int64_t>(file_, path_, object, name, H5T_NATIVE_INT64, false);
+}
+
+std::string H5Reader::attr_string(const std::string& object, const std::string& name) const {
+  silence_hdf5();
+  const std::string what = path_ + ": attribute " + quoted(name) + " on " + quoted(object);
+  const Handle a = open_attr(file_, path_, object, name);
+  const Handle type(H5Aget_type(a.get()), H5Tclose);
+  if (!type.ok() || H5Tget_class(type.get()) != H5T_STRING) {
+    throw IoError(what + " is not a string");
+  }
+  const htri_t variable = H5Tis_variable_str(type.get());
+  if (variable < 0)
+    throw IoError(what + ": " + hdf5_reason());
+
+  if (variable > 0) {
+    // h5py's default: the library allocates the string, we free it with H5free_memory.
+    Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
+    if (!mem.ok() || H5Tset_size(mem.get(), H5T_VARIABLE) < 0 ||
+        H5Tset_cset(mem.get(), H5Tget_cset(type.get())) < 0) {
+      throw IoError(what + ": " + hdf5_reason());
+    }
+    char* buf = nullptr;
+    if (H5Aread(a.get(), mem.get(), &buf) < 0) {
+      throw IoError(what + ": cannot read: " + hdf5_reason());
+    }
+    std::string value = buf != nullptr ? buf : "";
+    H5free_memory(buf);
+    return value;
+  }
+
+  // Fixed length: read the raw bytes, then undo the padding the writer chose.
+  const std::size_t size = H5Tget_size(type.get());
+  if (size == 0)
+    throw IoError(what + ": " + hdf5_reason());
+  std::string buf(size, '\0');
+  if (H5Aread(a.get(), type.get(), buf.data()) < 0) {
+    throw IoError(what + ": cannot read: " + hdf5_reason());
+  }
+  if (H5Tget_strpad(type.get()) == H5T_STR_SPACEPAD) {
+    buf.erase(buf.find_last_not_of(' ') + 1);
+  } else {
+    const std::size_t nul = buf.find('\0');
+    if (nul != std::string::npos)
+      buf.erase(nul);
+  }
+  return buf;
+}
+
+std::vector<std::string> H5Reader::attr_names(const std::string& object) const {
+  silence_hdf5();
+  if (!link_exists(file_, object))
+    throw IoError(path_ + ": no object " + quoted(object));
+  const Handle obj(H5Oopen(file_, object.c_str(), H5P_DEFAULT), H5Oclose);
+  if (!obj.ok()) {
+    throw IoError(path_ + ": cannot open " + quoted(object) + ": " + hdf5_reason());
+  }
+  StringVec out;
+  hsize_t idx = 0;
+  if (H5Aiterate2(obj.get(), H5_INDEX_NAME, H5_ITER_INC, &idx, collect_attr, &out) < 0) {
+    throw IoError(path_ + ": cannot list the attributes of " + quoted(object) + ": " +
+                  hdf5_reason());
+  }
+  return out.names;
+}
+
+std::vector<std::string> H5Reader::children(const std::string& group) const {
+  silence_hdf5();
+  if (!link_exists(file_, group))
+    throw IoError(path_ + ": no group " + quoted(group));
+  const Handle g(H5Gopen2(file_, group.c_str(), H5P_DEFAULT), H5Gclose);
+  if (!g.ok()) {
+    throw IoError(path_ + ": " + quoted(group) + " is not a group: " + hdf5_reason());
+  }
+  StringVec out;
+  hsize_t idx = 0;
+  if (H5Literate(g.get(), H5_INDEX_NAME, H5_ITER_INC, &idx, collect_link, &out) < 0) {
+    throw IoError(path_ + ": cannot list " + quoted(group) + ": " + hdf5_reason());
+  }
+  return out.names;
+}
+
+}  // namespace jamflow

@@ -1,0 +1,74 @@
+// Thin RAII layer over the HDF5 C API: what jamflow writes and reads, nothing more.
+//
+// Writing goes to "<path>.part"; commit() closes the file and renames it to <path>, so a run
+// that fails or is interrupted never leaves a file that looks complete.
+#pragma once
+#include <hdf5.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace jamflow {
+
+class H5Writer {
+ public:
+  explicit H5Writer(std::string path);
+  ~H5Writer();
+  H5Writer(const H5Writer&) = delete;
+  H5Writer& operator=(const H5Writer&) = delete;
+
+  const std::string& path() const { return path_; }
+  std::string part_path() const { return path_ + ".part"; }
+
+  // Creates intermediate groups as needed ("/a/b/c" makes /a and /a/b). dims empty means
+  // 1-D of data.size(); otherwise the product of dims must equal data.size() (row-major).
+  void dataset(const std::string& path, const std::vector<double>& data,
+               const std::vector<std::size_t>& dims = {});
+  void dataset(const std::string& path, const std::vector<std::int64_t>& data,
+               const std::vector<std::size_t>& dims = {});
+  void group(const std::string& path);
+
+  // Scalar attributes on an existing object (group or dataset; "/" is the root).
+  void attr(const std::string& object, const std::string& name, double value);
+  void attr(const std::string& object, const std::string& name, std::int64_t value);
+  void attr(const std::string& object, const std::string& name, const std::string& value);
+  void attr(const std::string& object, const std::string& name, const char* value) {
+    attr(object, name, std::string(value));
+  }
+
+  // Close and atomically rename <path>.part to <path>.
+  void commit();
+  // Close, keep <path>.part and record why it is incomplete in a root attribute "status".
+  void keep_partial(const std::string& status);
+
+ private:
+  std::string path_;
+  hid_t file_ = -1;
+  bool done_ = false;
+};
+
+class H5Reader {
+ public:
+  explicit H5Reader(const std::string& path);
+  ~H5Reader();
+  H5Reader(const H5Reader&) = delete;
+  H5Reader& operator=(const H5Reader&) = delete;
+
+  bool exists(const std::string& path) const;
+  bool has_attr(const std::string& object, const std::string& name) const;
+  std::vector<double> read_doubles(const std::string& path) const;
+  std::vector<std::int64_t> read_ints(const std::string& path) const;
+  std::vector<std::size_t> dims(const std::string& path) const;
+  double attr_double(const std::string& object, const std::string& name) const;
+  std::int64_t attr_int(const std::string& object, const std::string& name) const;
+  std::string attr_string(const std::string& object, const std::string& name) const;
+  std::vector<std::string> attr_names(const std::string& object) const;
+  std::vector<std::string> children(const std::string& group) const;
+
+ private:
+  std::string path_;
+  hid_t file_ = -1;
+};
+
+}  // namespace jamflow

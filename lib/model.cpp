@@ -1,0 +1,94 @@
+// The evaluated system: neighbour-list upkeep, remaps, memory ordering and observables.
+#include "lib/model.hpp"
+
+#include <cmath>
+#include <string>
+
+#include "lib/error.hpp"
+
+namespace jamflow {
+
+Model::Model(State state, const ModelOptions& options)
+    : state_(std::move(state)),
+      options_(options),
+      field_(options.alpha, options.threads),
+      list_(options.skin) {
+  if (state_.size() < 2)
+    throw ConfigError("[system] N must be at least 2");
+}
+
+void Model::reset_state(State state) {
+  state_ = std::move(state);
+  list_.invalidate();
+  fresh_ = false;
+}
+
+void Model::refresh_list() {
+  if (list_.valid(state_))
+    return;
+  state_.wrap();
+  list_.build(state_);
+}
+
+const Evaluation& Model::evaluate() {
+  if (fresh_)
+    return eval_;
+  refresh_list();
+  field_.compute(state_, list_, eval_.forces);
+  ++evaluations_;
+  const double v = state_.box.volume();
+  const Eigen::Matrix3d& w = eval_.forces.virial;
+  eval_.volume = v;
+  eval_.pressure = w.trace() / (3.0 * v);
+  eval_.sigma_xy = -w(0, 1) / v;
+  double dsum = 0.0;
+  for (double f : eval_.forces.force)
+    dsum += f * f;
+  eval_.dissipation = dsum / kXiS;
+  eval_.phi = state_.packing_fraction();
+  if (!std::isfinite(eval_.forces.energy) || !std::isfinite(dsum) || !std::isfinite(w.sum())) {
+    throw IntegrationError("forces became non-finite at t = " + std::to_string(state_.time) +
+                           " (energy " + std::to_string(eval_.forces.energy) + ")");
+  }
+  fresh_ = true;
+  return eval_;
+}
+
+bool Model::prepare_step() {
+  bool changed = false;
+  if (const int dir = state_.box.remap_direction(); dir != 0) {
+    state_.remap(dir);
+    list_.invalidate();
+    changed = true;
+  }
+  if (options_.sort_every > 0 &&
+      list_.builds() >= builds_at_last_sort_ + std::size_t(options_.sort_every)) {
+    sort_particles();
+    changed = true;
+  }
+  if (changed)
+    fresh_ = false;
+  return changed;
+}
+
+void Model::sort_particles() {
+  state_.wrap();
+  const auto order = NeighbourList::cell_order(state_, 1.4 + options_.skin);
+  const std::size_t n = state_.size();
+  State s = state_;
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t o = order[k];
+    for (int c = 0; c < 3; ++c) {
+      s.pos[c * n + k] = state_.pos[c * n + o];
+      s.image[c * n + k] = state_.image[c * n + o];
+    }
+    s.diameter[k] = state_.diameter[o];
+    s.species[k] = state_.species[o];
+    s.id[k] = state_.id[o];
+  }
+  state_ = std::move(s);
+  list_.invalidate();
+  builds_at_last_sort_ = list_.builds() + 1;  // the rebuild that follows
+}
+
+}  // namespace jamflow

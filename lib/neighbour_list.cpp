@@ -1,0 +1,233 @@
+// Verlet neighbour list from cell lists; see neighbour_list.hpp for the validity bound.
+#include "lib/neighbour_list.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <string>
+
+#include "lib/error.hpp"
+
+namespace jamflow {
+
+namespace {
+
+std::array<std::array<double, 3>, 27> make_shifts() {
+  std::array<std::array<double, 3>, 27> s{};
+  for (int nx = -1; nx <= 1; ++nx)
+    for (int ny = -1; ny <= 1; ++ny)
+      for (int nz = -1; nz <= 1; ++nz) {
+        const int code = (nx + 1) * 9 + (ny + 1) * 3 + (nz + 1);
+        s[code] = {-double(nx), -double(ny), -double(nz)};
+      }
+  return s;
+}
+
+// Bins per scaled direction so that a sphere of radius `reach` spans at most one bin on each
+// side. The widths are evaluated at |tilt| = 1/2, the most skewed cell between remaps.
+Eigen::Vector3i bins_for(const Box& box, double reach) {
+  Box worst = box;
+  worst.flips = 0;
+  worst.strain = 0.5 * box.lx / box.ly;
+  const Eigen::Vector3d w = worst.perpendicular_widths();
+  Eigen::Vector3i n;
+  for (int d = 0; d < 3; ++d)
+    n[d] = std::max(1, static_cast<int>(std::floor(w[d] / reach)));
+  return n;
+}
+
+}  // namespace
+
+const std::array<std::array<double, 3>, 27>& NeighbourList::shifts() {
+  static const auto table = make_shifts();
+  return table;
+}
+
+std::uint32_t image_code(double& dsx, double& dsy, double& dsz, double tilt) {
+  const double nz = std::nearbyint(dsz);
+  const double ny = std::nearbyint(dsy);
+  dsz -= nz;
+  dsy -= ny;
+  // Nearest x image in real space given the chosen y image.
+  const double nx = std::nearbyint(dsx + tilt * dsy);
+  dsx -= nx;
+  return static_cast<std::uint32_t>((nx + 1) * 9 + (ny + 1) * 3 + (nz + 1));
+}
+
+NeighbourList::NeighbourList(double skin) {
+  set_skin(skin);
+}
+
+void NeighbourList::set_skin(double skin) {
+  if (!(skin > 0.0) || !std::isfinite(skin)) {
+    throw ConfigError("neighbour skin = " + std::to_string(skin) + " must be > 0");
+  }
+  skin_ = skin;
+  built_ = false;
+}
+
+void NeighbourList::build(const State& state) {
+  const std::size_t n = state.size();
+  if (n > kMaxParticles)
+    throw ConfigError("N = " + std::to_string(n) + " exceeds the list limit");
+  a_min_ = *std::min_element(state.diameter.begin(), state.diameter.end());
+  a_max_ = *std::max_element(state.diameter.begin(), state.diameter.end());
+  const double reach = a_max_ + skin_;
+
+  // A pair must see at most one periodic image of a partner within reach.
+  {
+    Box worst = state.box;
+    worst.flips = 0;
+    worst.strain = 0.5 * state.box.lx / state.box.ly;
+    const double wmin = worst.perpendicular_widths().minCoeff();
+    if (2.0 * reach >= wmin) {
+      throw ConfigError("cell too small: narrowest width " + std::to_string(wmin) +
+                        " must exceed twice the list reach " + std::to_string(reach) +
+                        " (largest diameter + skin); increase N");
+    }
+  }
+
+  const Eigen::Vector3i nb = bins_for(state.box, reach);
+  start_.assign(n + 1, 0);
+  entries_.clear();
+  entries_.reserve(n * 8);
+
+  if (nb.minCoeff() < 3) {
+    build_all_pairs(state);
+  } else {
+    const std::size_t ncell = std::size_t(nb[0]) * nb[1] * nb[2];
+    std::vector<std::uint32_t> cell_of(n), cell_start(ncell + 1, 0), members(n);
+    const double* sx = state.x();
+    const double* sy = state.y();
+    const double* sz = state.z();
+    for (std::size_t i = 0; i < n; ++i) {
+      const int cx = std::min(nb[0] - 1, static_cast<int>(sx[i] * nb[0]));
+      const int cy = std::min(nb[1] - 1, static_cast<int>(sy[i] * nb[1]));
+      const int cz = std::min(nb[2] - 1, static_cast<int>(sz[i] * nb[2]));
+      cell_of[i] = static_cast<std::uint32_t>((cx * nb[1] + cy) * nb[2] + cz);
+      ++cell_start[cell_of[i] + 1];
+    }
+    std::partial_sum(cell_start.begin(), cell_start.end(), cell_start.begin());
+    {
+      std::vector<std::uint32_t> fill(cell_start.begin(), cell_start.end() - 1);
+      for (std::size_t i = 0; i < n; ++i)
+        members[fill[cell_of[i]]++] = std::uint32_t(i);
+    }
+    const Eigen::Matrix3d h = state.box.h();
+    const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
+    const double t = state.box.tilt();
+    const double* d = state.diameter.data();
+    std::vector<std::uint32_t> neigh_cells;
+    neigh_cells.reserve(27);
+    for (std::size_t i = 0; i < n; ++i) {
+      const int c = int(cell_of[i]);
+      const int cz = c % nb[2], cy = (c / nb[2]) % nb[1], cx = c / (nb[2] * nb[1]);
+      // Scaled coordinates are periodic in the unit cube whatever the tilt (the Lees–Edwards
+      // offset lives in h), so the 27 surrounding bins hold every partner within reach.
+      neigh_cells.clear();
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int xw = (cx + dx + nb[0]) % nb[0];
+        for (int dy = -1; dy <= 1; ++dy) {
+          const int yw = (cy + dy + nb[1]) % nb[1];
+          for (int dz = -1; dz <= 1; ++dz) {
+            const int zw = (cz + dz + nb[2]) % nb[2];
+            neigh_cells.push_back(std::uint32_t((xw * nb[1] + yw) * nb[2] + zw));
+          }
+        }
+      }
+      for (std::uint32_t cell : neigh_cells) {
+        for (std::uint32_t k = cell_start[cell]; k < cell_start[cell + 1]; ++k) {
+          const std::uint32_t j = members[k];
+          if (j <= i)
+            continue;
+          double dx = sx[i] - sx[j], dy = sy[i] - sy[j], dz = sz[i] - sz[j];
+          const std::uint32_t code = image_code(dx, dy, dz, t);
+          const double rx = hxx * dx + hxy * dy, ry = hyy * dy, rz = hzz * dz;
+          const double cut = 0.5 * (d[i] + d[j]) + skin_;
+          if (rx * rx + ry * ry + rz * rz < cut * cut) {
+            entries_.push_back((j << kCodeBits) | code);
+          }
+        }
+      }
+      start_[i + 1] = static_cast<std::uint32_t>(entries_.size());
+    }
+  }
+
+  ref_pos_ = state.pos;
+  h_ref_inv_ = state.box.h_inv();
+  built_ = true;
+  ++builds_;
+}
+
+void NeighbourList::build_all_pairs(const State& state) {
+  const std::size_t n = state.size();
+  const Eigen::Matrix3d h = state.box.h();
+  const double t = state.box.tilt();
+  const double* d = state.diameter.data();
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t j = i + 1; j < n; ++j) {
+      double dx = state.x()[i] - state.x()[j], dy = state.y()[i] - state.y()[j],
+             dz = state.z()[i] - state.z()[j];
+      const std::uint32_t code = image_code(dx, dy, dz, t);
+      const Eigen::Vector3d r = h * Eigen::Vector3d(dx, dy, dz);
+      const double cut = 0.5 * (d[i] + d[j]) + skin_;
+      if (r.squaredNorm() < cut * cut) {
+        entries_.push_back((std::uint32_t(j) << kCodeBits) | code);
+      }
+    }
+    start_[i + 1] = static_cast<std::uint32_t>(entries_.size());
+  }
+}
+
+bool NeighbourList::valid(const State& state) const {
+  if (!built_ || ref_pos_.size() != state.pos.size())
+    return false;
+  const Eigen::Matrix3d h = state.box.h();
+  const Eigen::Matrix3d m = h * h_ref_inv_;
+  const double sigma_min = std::sqrt(std::max(
+      0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(m.transpose() * m, Eigen::EigenvaluesOnly)
+               .eigenvalues()
+               .minCoeff()));
+  const std::size_t n = state.size();
+  const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
+  const double* p = state.pos.data();
+  const double* q = ref_pos_.data();
+  double d2max = 0.0, d2sum = 0.0;
+#pragma omp simd reduction(max : d2max) reduction(+ : d2sum)
+  for (std::size_t i = 0; i < n; ++i) {
+    const double ux = p[i] - q[i], uy = p[n + i] - q[n + i], uz = p[2 * n + i] - q[2 * n + i];
+    const double rx = hxx * ux + hxy * uy, ry = hyy * uy, rz = hzz * uz;
+    const double d2 = rx * rx + ry * ry + rz * rz;
+    d2max = d2 > d2max ? d2 : d2max;
+    d2sum += d2;
+  }
+  // A NaN never wins the max comparison, but it does poison the sum.
+  if (!std::isfinite(d2sum))
+    throw IntegrationError("particle positions became non-finite");
+  const double dmax = std::sqrt(d2max);
+  for (double a : {a_min_, a_max_}) {
+    if (sigma_min * (a + skin_) - 2.0 * dmax < a)
+      return false;
+  }
+  return true;
+}
+
+std::vector<std::uint32_t> NeighbourList::cell_order(const State& state, double cell_size) {
+  const std::size_t n = state.size();
+  const Eigen::Vector3i nb = bins_for(state.box, cell_size);
+  std::vector<std::uint64_t> key(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto c = [&](double s, int m) {
+      return std::uint64_t(std::clamp(static_cast<int>(s * m), 0, m - 1));
+    };
+    key[i] =
+        (c(state.x()[i], nb[0]) * nb[1] + c(state.y()[i], nb[1])) * nb[2] + c(state.z()[i], nb[2]);
+  }
+  std::vector<std::uint32_t> order(n);
+  std::iota(order.begin(), order.end(), 0u);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::uint32_t a, std::uint32_t b) { return key[a] < key[b]; });
+  return order;
+}
+
+}  // namespace jamflow

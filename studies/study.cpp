@@ -1,0 +1,50 @@
+// `jamflow study` command line and registry.
+#include "studies/study.hpp"
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+
+#include "lib/error.hpp"
+
+namespace jamflow::studies {
+
+const std::vector<StudyInfo>& registry() {
+  static const std::vector<StudyInfo> studies = {};
+  return studies;
+}
+
+int study_main(const std::vector<std::string>& args) {
+  CLI::App app{"Run a methodology study (see studies/README.md)", "jamflow study"};
+  std::string name;
+  StudyOptions opt;
+  std::string names;
+  for (const auto& s : registry())
+    names += (names.empty() ? "" : ", ") + s.name;
+  app.add_option("name", name, "study to run: " + (names.empty() ? "(none built)" : names))
+      ->required();
+  app.add_option("--preset", opt.preset, "quick (CI, minutes), standard (~1 h), paper (cluster)")
+      ->check(CLI::IsMember({"quick", "standard", "paper"}));
+  app.add_option("--out", opt.out_dir, "output folder (default out/<study>-<preset>)");
+  app.add_option("--threads", opt.threads, "OpenMP threads (0 = all)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_flag("--quiet", opt.quiet, "no progress lines");
+  app.add_flag("--no-plots", opt.no_plots, "skip PNG plots");
+  std::vector<std::string> rev(args.rbegin(), args.rend());
+  try {
+    app.parse(rev);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  for (const auto& s : registry()) {
+    if (s.name == name) {
+      if (opt.out_dir.empty())
+        opt.out_dir = "out/" + name + "-" + opt.preset;
+      return s.run(opt);
+    }
+  }
+  std::fprintf(stderr, "jamflow study: unknown study '%s'; allowed: %s\n", name.c_str(),
+               names.c_str());
+  return 2;
+}
+
+}  // namespace jamflow::studies

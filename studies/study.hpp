@@ -1,0 +1,32 @@
+// Study registry: `jamflow study NAME --preset P` runs a registered study.
+#pragma once
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace jamflow::studies {
+
+struct StudyOptions {
+  std::string preset = "quick";  // quick | standard | paper
+  std::string out_dir;           // default: out/<study>-<preset>
+  int threads = 0;
+  bool quiet = false;
+  bool no_plots = false;
+};
+
+using StudyFn = std::function<int(const StudyOptions&)>;
+
+struct StudyInfo {
+  std::string name;
+  std::string summary;
+  StudyFn run;
+};
+
+// All studies known to this build.
+const std::vector<StudyInfo>& registry();
+
+// Entry point for `jamflow study ...` (args are the words after "study").
+int study_main(const std::vector<std::string>& args);
+
+}  // namespace jamflow::studies
