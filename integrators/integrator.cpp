@@ -33,11 +33,19 @@ void drift_particles(State& state, const std::vector<double>& force, double dt) 
   }
 }
 
+std::unique_ptr<Integrator> make_euler(ConfigSection& section) {
+  return std::make_unique<Euler>(section.number("dt", Range::positive()));
+}
+
 std::unique_ptr<Integrator> make_integrator(ConfigSection& section) {
-  const std::string kind = section.choice("kind", {"euler"});
+  const std::string kind = section.choice("kind", {"euler", "respa", "cvode"});
   std::unique_ptr<Integrator> integ;
   if (kind == "euler") {
-    integ = std::make_unique<Euler>(section.number("dt", Range::positive()));
+    integ = make_euler(section);
+  } else if (kind == "respa") {
+    integ = make_respa(section);
+  } else {
+    integ = make_cvode(section);
   }
   section.finish();
   return integ;

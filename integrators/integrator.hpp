@@ -39,6 +39,11 @@ class Integrator {
 // Builds the integrator named by [integrator] kind, reading only that kind's keys.
 std::unique_ptr<Integrator> make_integrator(ConfigSection& section);
 
+// Per-kind factories (each reads its own keys; `kind` has been read already).
+std::unique_ptr<Integrator> make_euler(ConfigSection& section);
+std::unique_ptr<Integrator> make_respa(ConfigSection& section);
+std::unique_ptr<Integrator> make_cvode(ConfigSection& section);
+
 // Shared building blocks --------------------------------------------------------------
 
 // Moves the cell: strain += dstrain and V -> new_volume (affine: scaled coordinates fixed).

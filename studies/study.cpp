@@ -2,15 +2,29 @@
 #include "studies/study.hpp"
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 
 #include "lib/error.hpp"
 
 namespace jamflow::studies {
 
-const std::vector<StudyInfo>& registry() {
-  static const std::vector<StudyInfo> studies = {};
+namespace {
+std::vector<StudyInfo>& mutable_registry() {
+  static std::vector<StudyInfo> studies;
   return studies;
+}
+}  // namespace
+
+Registrar::Registrar(StudyInfo info) {
+  mutable_registry().push_back(std::move(info));
+}
+
+std::vector<StudyInfo> registry() {
+  std::vector<StudyInfo> out = mutable_registry();
+  std::sort(out.begin(), out.end(),
+            [](const StudyInfo& a, const StudyInfo& b) { return a.name < b.name; });
+  return out;
 }
 
 int study_main(const std::vector<std::string>& args) {

@@ -23,8 +23,14 @@ struct StudyInfo {
   StudyFn run;
 };
 
-// All studies known to this build.
-const std::vector<StudyInfo>& registry();
+// All studies known to this build, sorted by name.
+std::vector<StudyInfo> registry();
+
+// A study registers itself with a namespace-scope `const Registrar r{{name, summary, fn}};`.
+// The studies are built as an object library, so every registrar is linked in.
+struct Registrar {
+  explicit Registrar(StudyInfo info);
+};
 
 // Entry point for `jamflow study ...` (args are the words after "study").
 int study_main(const std::vector<std::string>& args);

@@ -1,0 +1,104 @@
+// Shared toolkit for studies.
+#include "studies/common.hpp"
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "lib/error.hpp"
+
+#ifndef JAMFLOW_PYTHON
+#define JAMFLOW_PYTHON "/usr/bin/python3"
+#endif
+#ifndef JAMFLOW_STUDIES_DIR
+#define JAMFLOW_STUDIES_DIR "studies"
+#endif
+
+namespace jamflow::studies {
+
+RunSpec spec_from_toml(const std::string& toml, const std::vector<std::string>& overrides,
+                       const std::string& source) {
+  Scene scene = Scene::parse(toml, source);
+  for (const auto& o : overrides)
+    scene.set(o);
+  return parse_run_spec(scene);
+}
+
+ReplicaResult run_one(const RunSpec& spec, std::uint64_t seed, const std::string& label,
+                      const StudyOptions& options) {
+  RunOptions o;
+  o.quiet = options.quiet;
+  o.label = label;
+  return run_replica(spec, seed, o);
+}
+
+std::string markdown_table(const std::vector<std::string>& header,
+                           const std::vector<std::vector<std::string>>& rows) {
+  std::ostringstream os;
+  os << "|";
+  for (const auto& h : header)
+    os << " " << h << " |";
+  os << "\n|";
+  for (std::size_t k = 0; k < header.size(); ++k)
+    os << "---|";
+  os << "\n";
+  for (const auto& r : rows) {
+    os << "|";
+    for (const auto& c : r)
+      os << " " << c << " |";
+    os << "\n";
+  }
+  return os.str();
+}
+
+std::string num(double value, int digits) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, value);
+  return buf;
+}
+
+std::string pm(double value, double error, int digits) {
+  return num(value, digits) + " ± " + num(error, 2);
+}
+
+bool run_plot(const std::string& script, const std::vector<std::string>& args,
+              const StudyOptions& options) {
+  if (options.no_plots)
+    return false;
+  const char* env = std::getenv("JAMFLOW_PYTHON");
+  const std::string python = env && *env ? env : JAMFLOW_PYTHON;
+  std::string cmd = "'" + python + "' '" + std::string(JAMFLOW_STUDIES_DIR) + "/" + script + "'";
+  for (const auto& a : args)
+    cmd += " '" + a + "'";
+  const int rc = std::system(cmd.c_str());
+  if (rc != 0) {
+    std::fprintf(stderr, "warning: plot script %s failed (exit %d); data and tables are written\n",
+                 script.c_str(), rc);
+    return false;
+  }
+  return true;
+}
+
+void ensure_dir(const std::string& dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec)
+    throw IoError("cannot create folder '" + dir + "': " + ec.message());
+}
+
+void write_text(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".part";
+  {
+    std::ofstream out(tmp, std::ios::binary);
+    if (!out)
+      throw IoError("cannot write '" + tmp + "'");
+    out << text;
+    if (!out)
+      throw IoError("write failed for '" + tmp + "'");
+  }
+  std::filesystem::rename(tmp, path);
+}
+
+}  // namespace jamflow::studies

@@ -1,0 +1,42 @@
+// Shared toolkit for studies: run scenes given as TOML text, collect summaries, write
+// markdown tables and call the plotting scripts (Debian's python3 with matplotlib).
+#pragma once
+#include <map>
+#include <string>
+#include <vector>
+
+#include "apps/run.hpp"
+#include "studies/study.hpp"
+
+namespace jamflow::studies {
+
+// Parses and validates a scene given as TOML text (plus "section.key=value" overrides).
+RunSpec spec_from_toml(const std::string& toml, const std::vector<std::string>& overrides = {},
+                       const std::string& source = "<study scene>");
+
+// Runs one replica of a spec (progress labelled `label` unless quiet). Never throws for an
+// IntegrationError: the result's status says what happened.
+ReplicaResult run_one(const RunSpec& spec, std::uint64_t seed, const std::string& label,
+                      const StudyOptions& options);
+
+// A markdown table: header names, then rows of already formatted cells.
+std::string markdown_table(const std::vector<std::string>& header,
+                           const std::vector<std::vector<std::string>>& rows);
+
+// "1.234e-05 +- 6.7e-07" style formatting.
+std::string pm(double value, double error, int digits = 4);
+std::string num(double value, int digits = 4);
+
+// Runs analysis/plot script `script` (a path relative to the studies folder, e.g.
+// "ensemble/plot.py") with arguments; returns false (with a one-line warning) if python or
+// matplotlib is unavailable or the script fails. Honours options.no_plots.
+bool run_plot(const std::string& script, const std::vector<std::string>& args,
+              const StudyOptions& options);
+
+// Creates the output folder (and parents); throws IoError if it cannot.
+void ensure_dir(const std::string& dir);
+
+// Writes text to a file atomically (temporary + rename).
+void write_text(const std::string& path, const std::string& text);
+
+}  // namespace jamflow::studies
