@@ -15,12 +15,15 @@ Model::Model(State state, const ModelOptions& options)
       list_(options.skin) {
   if (state_.size() < 2)
     throw ConfigError("[system] N must be at least 2");
+  particle_volume_ = state_.particle_volume();
 }
 
 void Model::reset_state(State state) {
   state_ = std::move(state);
+  particle_volume_ = state_.particle_volume();
   list_.invalidate();
   fresh_ = false;
+  sorted_once_ = false;
 }
 
 void Model::refresh_list() {
@@ -45,7 +48,7 @@ const Evaluation& Model::evaluate() {
   for (double f : eval_.forces.force)
     dsum += f * f;
   eval_.dissipation = dsum / kXiS;
-  eval_.phi = state_.packing_fraction();
+  eval_.phi = particle_volume_ / v;
   if (!std::isfinite(eval_.forces.energy) || !std::isfinite(dsum) || !std::isfinite(w.sum())) {
     throw IntegrationError("forces became non-finite at t = " + std::to_string(state_.time) +
                            " (energy " + std::to_string(eval_.forces.energy) + ")");
@@ -61,8 +64,12 @@ bool Model::prepare_step() {
     list_.invalidate();
     changed = true;
   }
+  // Sort on the first step (initial states come in arbitrary memory order), then every
+  // sort_every rebuilds as particles diffuse.
   if (options_.sort_every > 0 &&
-      list_.builds() >= builds_at_last_sort_ + std::size_t(options_.sort_every)) {
+      (!sorted_once_ ||
+       list_.builds() >= builds_at_last_sort_ + std::size_t(options_.sort_every))) {
+    sorted_once_ = true;
     sort_particles();
     changed = true;
   }

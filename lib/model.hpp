@@ -72,6 +72,8 @@ class Model {
   bool fresh_ = false;
   std::size_t evaluations_ = 0;
   std::size_t builds_at_last_sort_ = 0;
+  bool sorted_once_ = false;
+  double particle_volume_ = 0.0;
 };
 
 }  // namespace jamflow

@@ -1,0 +1,108 @@
+// Throughput benchmark (issue: core engine): ns per particle-step and particle-steps/s of
+// steady shear with explicit Euler, N = 1000 and 10000, phi = 0.64, gdot = 1e-4, dt = 0.1,
+// on 1 thread and on all cores. Start-up is excluded: each case first relaxes and shears the
+// random initial state, then times a steady-shear window (list rebuilds and remap checks
+// included, as in a production run).
+//
+// usage: bench_throughput [--quick] [--steps S] [--sizes 1000,10000]
+#include <omp.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "ensembles/constant_volume.hpp"
+#include "integrators/euler.hpp"
+#include "lib/init.hpp"
+#include "lib/model.hpp"
+
+using namespace jamflow;
+
+namespace {
+
+struct Result {
+  double ns_per_particle_step;
+  double cpu_ns_per_particle_step;  // process CPU time / threads: robust to a loaded machine
+  double particle_steps_per_s;
+  std::size_t builds;
+};
+
+Result time_window(Model& m, const ConstantVolume& ens, Euler& euler, long steps, double dt) {
+  const std::size_t builds0 = m.list_builds();
+  const double t0 = m.state().time;
+  const auto w0 = std::chrono::steady_clock::now();
+  const std::clock_t c0 = std::clock();
+  euler.advance(m, ens, t0 + steps * dt);
+  const double cpu = double(std::clock() - c0) / CLOCKS_PER_SEC;
+  const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+  const double ps = double(steps) * double(m.state().size());
+  return {1e9 * sec / ps, 1e9 * cpu / ps / m.force_field().threads(), ps / sec,
+          m.list_builds() - builds0};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::size_t> sizes = {1000, 10000};
+  long steps_override = 0;
+  bool quick = false;
+  for (int k = 1; k < argc; ++k) {
+    const std::string a = argv[k];
+    if (a == "--quick") {
+      quick = true;
+    } else if (a == "--steps" && k + 1 < argc) {
+      steps_override = std::atol(argv[++k]);
+    } else if (a == "--sizes" && k + 1 < argc) {
+      sizes.clear();
+      std::stringstream ss(argv[++k]);
+      std::string item;
+      while (std::getline(ss, item, ','))
+        sizes.push_back(std::stoul(item));
+    } else {
+      std::fprintf(stderr, "usage: bench_throughput [--quick] [--steps S] [--sizes N1,N2]\n");
+      return 2;
+    }
+  }
+  const double phi = 0.64, gdot = 1e-4, dt = 0.1;
+  const int all = omp_get_max_threads();
+  std::printf("jamflow throughput: Euler, phi = %.2f, gdot = %g, dt = %g, %d cores available\n",
+              phi, gdot, dt, all);
+  std::printf("%8s %8s %14s %14s %16s %10s %8s\n", "N", "threads", "ns/part-step", "cpu-ns/p-step",
+              "part-steps/s", "speed-up", "rebuilds");
+  for (std::size_t n : sizes) {
+    // Pre-shear once: relax the random overlaps and reach steady flow (strain 0.3).
+    ConstantVolume ens(gdot);
+    Model m(random_state(n, phi, 42), ModelOptions{2.0, 0.3, all, 20});
+    {
+      Euler pre(dt);
+      ConstantVolume fast(1e-3);
+      pre.advance(m, fast, quick ? 50.0 : 300.0);  // strain 0.3 at a faster rate
+      pre.advance(m, ens, m.state().time + (quick ? 20.0 : 200.0));
+    }
+    const State steady = m.state();
+    const long steps = steps_override > 0
+                           ? steps_override
+                           : (quick ? 200 : long(std::max<std::size_t>(2000, 2e8 / n)));
+    double base = 0.0;
+    std::vector<int> counts = {1};
+    if (all > 1)
+      counts.push_back(all);
+    for (int threads : counts) {
+      Model run(steady, ModelOptions{2.0, 0.3, threads, 20});
+      Euler euler(dt);
+      time_window(run, ens, euler, steps / 10, dt);  // warm caches and buffers
+      const Result r = time_window(run, ens, euler, steps, dt);
+      if (threads == 1)
+        base = r.ns_per_particle_step;
+      std::printf("%8zu %8d %14.2f %14.2f %16.3e %10.2f %8zu\n", n, threads, r.ns_per_particle_step,
+                  r.cpu_ns_per_particle_step, r.particle_steps_per_s, base / r.ns_per_particle_step,
+                  r.builds);
+      std::fflush(stdout);
+    }
+  }
+  return 0;
+}
