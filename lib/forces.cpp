@@ -66,10 +66,15 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
     double* fz = f + 2 * n;
     double u = 0.0, wxx = 0.0, wyy = 0.0, wzz = 0.0, wxy = 0.0, wxz = 0.0, wyz = 0.0;
     std::size_t nc = 0;
+    // Contacts of one particle, gathered without a branch: which listed pairs touch is
+    // unpredictable, and a mispredicted branch per pair cost more than the pair itself.
+    const std::size_t row = list.max_row();
+    std::vector<std::uint32_t> cj(row);
+    std::vector<double> crx(row), cry(row), crz(row), cr2(row), ca(row);
 #pragma omp for schedule(static)
     for (std::size_t i = 0; i < n; ++i) {
       const double xi = sx[i], yi = sy[i], zi = sz[i], di = d[i];
-      double fxi = 0.0, fyi = 0.0, fzi = 0.0;
+      std::size_t m = 0;
       for (std::uint32_t k = start[i]; k < start[i + 1]; ++k) {
         const std::uint32_t e = entries[k];
         const std::uint32_t j = e >> NeighbourList::kCodeBits;
@@ -80,11 +85,20 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
         const double rx = hxx * dx + hxy * dy, ry = hyy * dy, rz = hzz * dz;
         const double r2 = rx * rx + ry * ry + rz * rz;
         const double a = 0.5 * (di + d[j]);
-        if (r2 >= a * a)
-          continue;
-        const double r = std::sqrt(r2);
-        const PairValue pv = pair(r, a);
+        cj[m] = j;
+        crx[m] = rx;
+        cry[m] = ry;
+        crz[m] = rz;
+        cr2[m] = r2;
+        ca[m] = a;
+        m += (r2 < a * a) ? 1 : 0;
+      }
+      double fxi = 0.0, fyi = 0.0, fzi = 0.0;
+      for (std::size_t c = 0; c < m; ++c) {
+        const double rx = crx[c], ry = cry[c], rz = crz[c];
+        const PairValue pv = pair(std::sqrt(cr2[c]), ca[c]);
         const double gx = pv.f_over_r * rx, gy = pv.f_over_r * ry, gz = pv.f_over_r * rz;
+        const std::uint32_t j = cj[c];
         fxi += gx;
         fyi += gy;
         fzi += gz;
@@ -98,8 +112,8 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
         wxy += rx * gy;
         wxz += rx * gz;
         wyz += ry * gz;
-        ++nc;
       }
+      nc += m;
       fx[i] += fxi;
       fy[i] += fyi;
       fz[i] += fzi;

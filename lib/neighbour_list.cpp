@@ -153,6 +153,9 @@ void NeighbourList::build(const State& state) {
     }
   }
 
+  max_row_ = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    max_row_ = std::max<std::size_t>(max_row_, start_[i + 1] - start_[i]);
   ref_pos_ = state.pos;
   h_ref_inv_ = state.box.h_inv();
   built_ = true;

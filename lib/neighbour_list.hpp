@@ -41,6 +41,7 @@ class NeighbourList {
   static const std::array<std::array<double, 3>, 27>& shifts();
 
   std::size_t builds() const { return builds_; }
+  std::size_t max_row() const { return max_row_; }  // longest neighbour row of one particle
   std::size_t pairs() const { return entries_.size(); }
 
   // Permutation that orders particles by cell (memory locality for the pair loop).
@@ -55,6 +56,7 @@ class NeighbourList {
   std::vector<double> ref_pos_;
   Eigen::Matrix3d h_ref_inv_ = Eigen::Matrix3d::Identity();
   double a_min_ = 0.0, a_max_ = 0.0;
+  std::size_t max_row_ = 0;
 };
 
 // Nearest image code for scaled separation ds under tilt t, and the image itself.
