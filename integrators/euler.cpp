@@ -24,7 +24,7 @@ void Euler::advance(Model& model, const Ensemble& ensemble, double t_end) {
     move_cell(s, ensemble.shear_rate() * h, v_new);
     // Forces of the old configuration, displacement mapped with the new cell: r advances by
     // exactly dt F / xi_s on top of the affine flow.
-    drift_particles(s, ev.forces.force, h);
+    drift_particles(s, ev.forces.force, h, model.force_field().threads());
     s.time = (h == dt_) ? s.time + h : t_end;
     model.touch();
     ++steps_;

@@ -14,7 +14,7 @@ void move_cell(State& state, double dstrain, double new_volume) {
     state.box.set_volume(new_volume);
 }
 
-void drift_particles(State& state, const std::vector<double>& force, double dt) {
+void drift_particles(State& state, const std::vector<double>& force, double dt, int threads) {
   const std::size_t n = state.size();
   const Eigen::Matrix3d hi = state.box.h_inv();
   const double a = dt / kXiS;
@@ -25,7 +25,7 @@ void drift_particles(State& state, const std::vector<double>& force, double dt) 
   const double* fx = force.data();
   const double* fy = fx + n;
   const double* fz = fx + 2 * n;
-#pragma omp simd
+#pragma omp parallel for simd schedule(static) num_threads(threads) if (threads > 1)
   for (std::size_t i = 0; i < n; ++i) {
     x[i] += ixx * fx[i] + ixy * fy[i];
     y[i] += iyy * fy[i];

@@ -50,6 +50,7 @@ std::unique_ptr<Integrator> make_cvode(ConfigSection& section);
 void move_cell(State& state, double dstrain, double new_volume);
 
 // Particle drift with the forces of `eval`: s += dt h^-1 F / xi_s, with h the current cell.
-void drift_particles(State& state, const std::vector<double>& force, double dt);
+// Independent per particle, so threading it changes nothing in the result.
+void drift_particles(State& state, const std::vector<double>& force, double dt, int threads = 1);
 
 }  // namespace jamflow

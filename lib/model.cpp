@@ -1,6 +1,8 @@
 // The evaluated system: neighbour-list upkeep, remaps, memory ordering and observables.
 #include "lib/model.hpp"
 
+#include <omp.h>
+
 #include <cmath>
 #include <string>
 

@@ -182,7 +182,7 @@ void NeighbourList::build_all_pairs(const State& state) {
   }
 }
 
-bool NeighbourList::valid(const State& state) const {
+bool NeighbourList::valid(const State& state, int threads) const {
   if (!built_ || ref_pos_.size() != state.pos.size())
     return false;
   const Eigen::Matrix3d h = state.box.h();
@@ -196,7 +196,8 @@ bool NeighbourList::valid(const State& state) const {
   const double* p = state.pos.data();
   const double* q = ref_pos_.data();
   double d2max = 0.0, d2sum = 0.0;
-#pragma omp simd reduction(max : d2max) reduction(+ : d2sum)
+#pragma omp parallel for simd schedule(static) num_threads(threads) if (threads > 1) \
+    reduction(max : d2max) reduction(+ : d2sum)
   for (std::size_t i = 0; i < n; ++i) {
     const double ux = p[i] - q[i], uy = p[n + i] - q[n + i], uz = p[2 * n + i] - q[2 * n + i];
     const double rx = hxx * ux + hxy * uy, ry = hyy * uy, rz = hzz * uz;

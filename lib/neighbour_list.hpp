@@ -32,7 +32,7 @@ class NeighbourList {
   // Builds the list. The state must be wrapped (scaled coordinates in [0, 1)).
   void build(const State& state);
   // False when a pair outside the list might now be in contact, or the list was never built.
-  bool valid(const State& state) const;
+  bool valid(const State& state, int threads = 1) const;
   void invalidate() { built_ = false; }
 
   const std::vector<std::uint32_t>& start() const { return start_; }      // size n + 1
