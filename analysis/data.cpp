@@ -1,0 +1,578 @@
+// CSV and HDF5 readers for state-point summaries (see data.hpp).
+#include "analysis/data.hpp"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <tuple>
+
+#include "analysis/errors.hpp"
+#include "analysis/json.hpp"
+
+namespace jamflow::analysis {
+
+namespace {
+
+std::string trim(const std::string& s) {
+  std::size_t b = 0, e = s.size();
+  while (b < e && std::isspace(static_cast<unsigned char>(s[b])))
+    ++b;
+  while (e > b && std::isspace(static_cast<unsigned char>(s[e - 1])))
+    --e;
+  return s.substr(b, e - b);
+}
+
+std::vector<std::string> split_csv_line(const std::string& line) {
+  std::vector<std::string> fields;
+  std::string field;
+  for (char c : line) {
+    if (c == ',') {
+      fields.push_back(trim(field));
+      field.clear();
+    } else {
+      field += c;
+    }
+  }
+  fields.push_back(trim(field));
+  return fields;
+}
+
+// A CSV table: header names and rows of raw fields, with line numbers kept
+// for messages.
+struct CsvTable {
+  std::string path;
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+  std::vector<int> line_numbers;
+
+  int column(const std::string& name) const {
+    for (std::size_t i = 0; i < header.size(); ++i) {
+      if (header[i] == name)
+        return static_cast<int>(i);
+    }
+    return -1;
+  }
+  bool has_columns(const std::vector<std::string>& names) const {
+    return std::all_of(names.begin(), names.end(),
+                       [&](const std::string& n) { return column(n) >= 0; });
+  }
+};
+
+CsvTable read_csv(const std::string& path) {
+  std::ifstream in(path);
+  if (!in)
+    throw InputError(path + ": cannot open file");
+  CsvTable table;
+  table.path = path;
+  std::string line;
+  int line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r')
+      line.pop_back();
+    std::string t = trim(line);
+    if (t.empty() || t[0] == '#')
+      continue;  // blank lines and comments
+    auto fields = split_csv_line(t);
+    if (table.header.empty()) {
+      table.header = fields;
+      for (std::size_t i = 0; i < fields.size(); ++i) {
+        if (fields[i].empty()) {
+          throw InputError(path + ":" + std::to_string(line_no) + ": header column " +
+                           std::to_string(i + 1) + " is empty");
+        }
+        for (std::size_t k = 0; k < i; ++k) {
+          if (fields[k] == fields[i]) {
+            throw InputError(path + ":" + std::to_string(line_no) + ": duplicate column '" +
+                             fields[i] + "' in the header");
+          }
+        }
+      }
+      continue;
+    }
+    if (fields.size() != table.header.size()) {
+      throw InputError(path + ":" + std::to_string(line_no) + ": expected " +
+                       std::to_string(table.header.size()) + " comma-separated fields (" +
+                       "as in the header), found " + std::to_string(fields.size()));
+    }
+    table.rows.push_back(std::move(fields));
+    table.line_numbers.push_back(line_no);
+  }
+  if (table.header.empty())
+    throw InputError(path + ": empty file (no header line)");
+  if (table.rows.empty())
+    throw InputError(path + ": no data rows after the header");
+  return table;
+}
+
+// Parses one numeric field; the message names file, line and column.
+double field_number(const CsvTable& t, std::size_t row, const std::string& name) {
+  const std::string& text = t.rows[row][static_cast<std::size_t>(t.column(name))];
+  std::string where =
+      t.path + ":" + std::to_string(t.line_numbers[row]) + ": column '" + name + "'";
+  double value = 0.0;
+  const char* b = text.data();
+  const char* e = b + text.size();
+  if (!text.empty() && *b == '+')
+    ++b;
+  auto res = std::from_chars(b, e, value);
+  if (text.empty() || res.ec != std::errc() || res.ptr != e) {
+    throw InputError(where + ": expected a number, got '" + text + "'");
+  }
+  if (!std::isfinite(value))
+    throw InputError(where + ": non-finite value '" + text + "'");
+  return value;
+}
+
+std::int64_t field_size(const CsvTable& t, std::size_t row, const std::string& name) {
+  double v = field_number(t, row, name);
+  if (v < 1.0 || v != std::floor(v) || v > 1e15) {
+    throw InputError(t.path + ":" + std::to_string(t.line_numbers[row]) + ": column '" + name +
+                     "': expected a positive integer particle number, got " + std::to_string(v));
+  }
+  return static_cast<std::int64_t>(v);
+}
+
+[[noreturn]] void range_error(const std::string& where, const std::string& name, double v,
+                              const std::string& allowed) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  throw InputError(where + ": " + name + " = " + buf + " is out of range (" + allowed + ")");
+}
+
+void check_positive(const std::string& where, const std::string& name, double v) {
+  if (!std::isfinite(v))
+    range_error(where, name, v, "must be finite");
+  if (!(v > 0.0))
+    range_error(where, name, v, "must be > 0");
+}
+
+void check_phi(const std::string& where, double v) {
+  if (!std::isfinite(v) || !(v > 0.0 && v < 1.0))
+    range_error(where, "phi", v, "0 < phi < 1");
+}
+
+void check_finite(const std::string& where, const std::string& name, double v) {
+  if (!std::isfinite(v))
+    range_error(where, name, v, "must be finite");
+}
+
+const std::vector<std::string> kGranularColumns = {"N",       "P",  "gdot",  "phi",
+                                                   "phi_err", "mu", "mu_err"};
+const std::vector<std::string> kShearColumns = {"N", "phi", "gdot", "sigma_xy", "sigma_xy_err"};
+
+std::string join(const std::vector<std::string>& xs) {
+  std::string out;
+  for (const auto& x : xs)
+    out += (out.empty() ? "" : ",") + x;
+  return out;
+}
+
+enum class TableForm { kGranular, kShear };
+
+TableForm table_form(const CsvTable& t) {
+  if (t.has_columns(kGranularColumns))
+    return TableForm::kGranular;
+  if (t.has_columns(kShearColumns))
+    return TableForm::kShear;
+  std::vector<std::string> missing_g, missing_s;
+  for (const auto& c : kGranularColumns) {
+    if (t.column(c) < 0)
+      missing_g.push_back(c);
+  }
+  for (const auto& c : kShearColumns) {
+    if (t.column(c) < 0)
+      missing_s.push_back(c);
+  }
+  throw InputError(t.path + ": header '" + join(t.header) +
+                   "' matches neither the granular table (" + join(kGranularColumns) +
+                   "; missing " + join(missing_g) + ") nor the constant-volume table (" +
+                   join(kShearColumns) + "; missing " + join(missing_s) + ")");
+}
+
+GranularPoint granular_from_row(const CsvTable& t, std::size_t r) {
+  GranularPoint p;
+  p.source = t.path + ":" + std::to_string(t.line_numbers[r]);
+  p.n = field_size(t, r, "N");
+  p.pressure = field_number(t, r, "P");
+  p.shear_rate = field_number(t, r, "gdot");
+  p.phi = field_number(t, r, "phi");
+  p.phi_err = field_number(t, r, "phi_err");
+  p.mu = field_number(t, r, "mu");
+  p.mu_err = field_number(t, r, "mu_err");
+  check_positive(p.source + ": column 'P'", "P", p.pressure);
+  check_positive(p.source + ": column 'gdot'", "gdot", p.shear_rate);
+  check_phi(p.source + ": column 'phi'", p.phi);
+  check_positive(p.source + ": column 'phi_err'", "phi_err", p.phi_err);
+  check_positive(p.source + ": column 'mu_err'", "mu_err", p.mu_err);
+  p.j = p.shear_rate / p.pressure;
+  return p;
+}
+
+std::string set_label_volume(std::int64_t n, double phi) {
+  return "N=" + std::to_string(n) + ",phi=" + format_key(phi);
+}
+std::string set_label_pressure(std::int64_t n, double p) {
+  return "N=" + std::to_string(n) + ",P=" + format_key(p);
+}
+
+ShearPoint shear_from_row(const CsvTable& t, std::size_t r, TableForm form) {
+  ShearPoint s;
+  s.source = t.path + ":" + std::to_string(t.line_numbers[r]);
+  s.n = field_size(t, r, "N");
+  s.phi = field_number(t, r, "phi");
+  s.shear_rate = field_number(t, r, "gdot");
+  check_phi(s.source + ": column 'phi'", s.phi);
+  check_positive(s.source + ": column 'gdot'", "gdot", s.shear_rate);
+  if (form == TableForm::kShear) {
+    s.sigma = field_number(t, r, "sigma_xy");
+    s.sigma_err = field_number(t, r, "sigma_xy_err");
+    check_positive(s.source + ": column 'sigma_xy' (the collapse works with log sigma_xy)",
+                   "sigma_xy", s.sigma);
+    check_positive(s.source + ": column 'sigma_xy_err'", "sigma_xy_err", s.sigma_err);
+    s.set = set_label_volume(s.n, s.phi);
+  } else {
+    GranularPoint g = granular_from_row(t, r);
+    check_positive(s.source + ": column 'mu' (the collapse works with log sigma_xy = mu P)", "mu",
+                   g.mu);
+    s.sigma = g.mu * g.pressure;
+    s.sigma_err = g.mu_err * g.pressure;
+    s.set = set_label_pressure(g.n, g.pressure);
+  }
+  return s;
+}
+
+// --- HDF5 ------------------------------------------------------------------
+
+// Silences HDF5's automatic error-stack printing for the lifetime of the
+// guard: a missing attribute is reported by our own message instead.
+class Hdf5ErrorSilencer {
+ public:
+  Hdf5ErrorSilencer() {
+    H5Eget_auto2(H5E_DEFAULT, &old_func_, &old_data_);
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  }
+  ~Hdf5ErrorSilencer() { H5Eset_auto2(H5E_DEFAULT, old_func_, old_data_); }
+  Hdf5ErrorSilencer(const Hdf5ErrorSilencer&) = delete;
+  Hdf5ErrorSilencer& operator=(const Hdf5ErrorSilencer&) = delete;
+
+ private:
+  H5E_auto2_t old_func_ = nullptr;
+  void* old_data_ = nullptr;
+};
+
+class Handle {
+ public:
+  Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
+  ~Handle() {
+    if (id_ >= 0)
+      close_(id_);
+  }
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  hid_t get() const { return id_; }
+  bool valid() const { return id_ >= 0; }
+
+ private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
+};
+
+bool has_attribute(hid_t obj, const char* name) {
+  return H5Aexists(obj, name) > 0;
+}
+
+double read_double_attr(hid_t obj, const char* name, const std::string& where) {
+  if (!has_attribute(obj, name))
+    throw InputError(where + ": missing attribute '" + name + "'");
+  Handle attr(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
+  Handle type(H5Aget_type(attr.get()), H5Tclose);
+  Handle space(H5Aget_space(attr.get()), H5Sclose);
+  H5T_class_t cls = H5Tget_class(type.get());
+  if ((cls != H5T_FLOAT && cls != H5T_INTEGER) || H5Sget_simple_extent_npoints(space.get()) != 1) {
+    throw InputError(where + ": attribute '" + name + "' is not a numeric scalar");
+  }
+  double value = 0.0;
+  if (H5Aread(attr.get(), H5T_NATIVE_DOUBLE, &value) < 0) {
+    throw InputError(where + ": cannot read attribute '" + name + "'");
+  }
+  return value;
+}
+
+std::int64_t read_int_attr(hid_t obj, const char* name, const std::string& where) {
+  if (!has_attribute(obj, name))
+    throw InputError(where + ": missing attribute '" + name + "'");
+  Handle attr(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
+  Handle type(H5Aget_type(attr.get()), H5Tclose);
+  Handle space(H5Aget_space(attr.get()), H5Sclose);
+  if (H5Tget_class(type.get()) != H5T_INTEGER || H5Sget_simple_extent_npoints(space.get()) != 1) {
+    throw InputError(where + ": attribute '" + name + "' is not an integer scalar");
+  }
+  std::int64_t value = 0;
+  if (H5Aread(attr.get(), H5T_NATIVE_INT64, &value) < 0) {
+    throw InputError(where + ": cannot read attribute '" + name + "'");
+  }
+  return value;
+}
+
+// Reads a string attribute stored either as variable- or fixed-length.
+std::string read_string_attr(hid_t obj, const char* name, const std::string& where) {
+  if (!has_attribute(obj, name))
+    throw InputError(where + ": missing attribute '" + name + "'");
+  Handle attr(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose);
+  Handle type(H5Aget_type(attr.get()), H5Tclose);
+  if (H5Tget_class(type.get()) != H5T_STRING) {
+    throw InputError(where + ": attribute '" + name + "' is not a string");
+  }
+  if (H5Tis_variable_str(type.get()) > 0) {
+    Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
+    H5Tset_size(mem.get(), H5T_VARIABLE);
+    H5Tset_cset(mem.get(), H5Tget_cset(type.get()));
+    char* raw = nullptr;
+    if (H5Aread(attr.get(), mem.get(), &raw) < 0) {
+      throw InputError(where + ": cannot read string attribute '" + name + "'");
+    }
+    std::string out = raw ? raw : "";
+    H5free_memory(raw);
+    return out;
+  }
+  std::size_t size = H5Tget_size(type.get());
+  std::string buf(size + 1, '\0');
+  Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
+  H5Tset_size(mem.get(), size + 1);
+  H5Tset_strpad(mem.get(), H5T_STR_NULLTERM);
+  if (H5Aread(attr.get(), mem.get(), buf.data()) < 0) {
+    throw InputError(where + ": cannot read string attribute '" + name + "'");
+  }
+  buf.resize(std::char_traits<char>::length(buf.c_str()));
+  return buf;
+}
+
+std::string optional_root_string(hid_t file, const char* name, const std::string& where) {
+  if (!has_attribute(file, name))
+    return "";
+  return read_string_attr(file, name, where);
+}
+
+}  // namespace
+
+bool is_hdf5_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    return false;
+  char sig[8] = {};
+  in.read(sig, 8);
+  static const char kSignature[8] = {'\x89', 'H', 'D', 'F', '\r', '\n', '\x1a', '\n'};
+  return in.gcount() == 8 && std::equal(sig, sig + 8, kSignature);
+}
+
+RunSummary read_run_summary(const std::string& path) {
+  Hdf5ErrorSilencer silence;
+  Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!file.valid())
+    throw InputError(path + ": cannot open as an HDF5 file");
+  if (H5Lexists(file.get(), "summary", H5P_DEFAULT) <= 0) {
+    throw InputError(path + ": no /summary group (not a completed `jamflow run` output?)");
+  }
+  Handle group(H5Gopen2(file.get(), "summary", H5P_DEFAULT), H5Gclose);
+  if (!group.valid())
+    throw InputError(path + ": /summary is not a group");
+  const std::string where = path + ": /summary";
+  RunSummary s;
+  s.path = path;
+  s.scene = optional_root_string(file.get(), "scene", path);
+  s.version = optional_root_string(file.get(), "version", path);
+  s.git_commit = optional_root_string(file.get(), "git_commit", path);
+  s.created = optional_root_string(file.get(), "created", path);
+  const hid_t g = group.get();
+  s.ensemble = read_string_attr(g, "ensemble", where);
+  if (s.ensemble != "constant_volume" && s.ensemble != "constant_pressure") {
+    throw InputError(where + ": attribute 'ensemble' = '" + s.ensemble +
+                     "' (allowed: constant_volume, constant_pressure)");
+  }
+  s.n = read_int_attr(g, "N", where);
+  s.sigma_xy = read_double_attr(g, "sigma_xy", where);
+  s.sigma_xy_err = read_double_attr(g, "sigma_xy_err", where);
+  s.pressure = read_double_attr(g, "pressure", where);
+  s.pressure_err = read_double_attr(g, "pressure_err", where);
+  s.phi = read_double_attr(g, "phi", where);
+  s.phi_err = read_double_attr(g, "phi_err", where);
+  s.eta = read_double_attr(g, "eta", where);
+  s.eta_err = read_double_attr(g, "eta_err", where);
+  s.mu = read_double_attr(g, "mu", where);
+  s.mu_err = read_double_attr(g, "mu_err", where);
+  s.j = read_double_attr(g, "J", where);
+  s.energy_balance = read_double_attr(g, "energy_balance", where);
+  s.shear_rate = read_double_attr(g, "shear_rate", where);
+  s.alpha = read_double_attr(g, "alpha", where);
+  if (s.ensemble == "constant_pressure") {
+    s.imposed_pressure = read_double_attr(g, "imposed_pressure", where);
+    s.has_imposed_pressure = true;
+  }
+  if (s.n < 1)
+    range_error(where, "N", static_cast<double>(s.n), "must be >= 1");
+  return s;
+}
+
+std::vector<GranularPoint> read_granular(const std::vector<std::string>& paths) {
+  if (paths.empty())
+    throw InputError("no data files given");
+  std::vector<GranularPoint> points;
+  for (const auto& path : paths) {
+    if (is_hdf5_file(path)) {
+      RunSummary s = read_run_summary(path);
+      const std::string where = path + ": /summary";
+      if (s.ensemble != "constant_pressure") {
+        throw InputError(path + ": ensemble is '" + s.ensemble +
+                         "'; the granular analyses need constant_pressure runs");
+      }
+      GranularPoint p;
+      p.source = path;
+      p.n = s.n;
+      p.pressure = s.imposed_pressure;
+      p.shear_rate = s.shear_rate;
+      p.phi = s.phi;
+      p.phi_err = s.phi_err;
+      p.mu = s.mu;
+      p.mu_err = s.mu_err;
+      check_positive(where, "imposed_pressure", p.pressure);
+      check_positive(where, "shear_rate", p.shear_rate);
+      check_phi(where, p.phi);
+      check_positive(where, "phi_err", p.phi_err);
+      check_finite(where, "mu", p.mu);
+      check_positive(where, "mu_err", p.mu_err);
+      p.j = p.shear_rate / p.pressure;
+      points.push_back(p);
+      continue;
+    }
+    CsvTable t = read_csv(path);
+    if (table_form(t) != TableForm::kGranular) {
+      throw InputError(path + ": this is a constant-volume table (" + join(kShearColumns) +
+                       "); the granular analyses need constant-pressure data with columns " +
+                       join(kGranularColumns));
+    }
+    for (std::size_t r = 0; r < t.rows.size(); ++r)
+      points.push_back(granular_from_row(t, r));
+  }
+  return merge_repeats(std::move(points));
+}
+
+std::vector<ShearPoint> read_shear(const std::vector<std::string>& paths) {
+  if (paths.empty())
+    throw InputError("no data files given");
+  std::vector<ShearPoint> points;
+  for (const auto& path : paths) {
+    if (is_hdf5_file(path)) {
+      RunSummary s = read_run_summary(path);
+      const std::string where = path + ": /summary";
+      ShearPoint p;
+      p.source = path;
+      p.n = s.n;
+      p.phi = s.phi;
+      p.shear_rate = s.shear_rate;
+      p.sigma = s.sigma_xy;
+      p.sigma_err = s.sigma_xy_err;
+      check_phi(where, p.phi);
+      check_positive(where, "shear_rate", p.shear_rate);
+      check_positive(where + " (the collapse works with log sigma_xy)", "sigma_xy", p.sigma);
+      check_positive(where, "sigma_xy_err", p.sigma_err);
+      if (s.ensemble == "constant_volume") {
+        p.set = set_label_volume(s.n, s.phi);
+      } else {
+        check_positive(where, "imposed_pressure", s.imposed_pressure);
+        p.set = set_label_pressure(s.n, s.imposed_pressure);
+      }
+      points.push_back(p);
+      continue;
+    }
+    CsvTable t = read_csv(path);
+    TableForm form = table_form(t);
+    for (std::size_t r = 0; r < t.rows.size(); ++r)
+      points.push_back(shear_from_row(t, r, form));
+  }
+  return merge_repeats(std::move(points));
+}
+
+namespace {
+
+// Inverse-variance weighted mean of values with errors.
+std::pair<double, double> weighted_mean(const std::vector<std::pair<double, double>>& xs) {
+  double sw = 0.0, swx = 0.0;
+  for (auto [x, e] : xs) {
+    double w = 1.0 / (e * e);
+    sw += w;
+    swx += w * x;
+  }
+  return {swx / sw, 1.0 / std::sqrt(sw)};
+}
+
+std::string merged_source(const std::vector<std::string>& sources) {
+  if (sources.size() == 1)
+    return sources[0];
+  return sources[0] + " (+" + std::to_string(sources.size() - 1) + " repeats)";
+}
+
+}  // namespace
+
+std::vector<GranularPoint> merge_repeats(std::vector<GranularPoint> points) {
+  std::map<std::tuple<std::int64_t, double, double>, std::vector<std::size_t>> groups;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    groups[{points[i].n, points[i].pressure, points[i].shear_rate}].push_back(i);
+  }
+  std::vector<GranularPoint> out;
+  out.reserve(groups.size());
+  for (const auto& [key, idx] : groups) {
+    GranularPoint m = points[idx[0]];
+    if (idx.size() > 1) {
+      std::vector<std::pair<double, double>> phis, mus;
+      std::vector<std::string> sources;
+      for (std::size_t i : idx) {
+        phis.emplace_back(points[i].phi, points[i].phi_err);
+        mus.emplace_back(points[i].mu, points[i].mu_err);
+        sources.push_back(points[i].source);
+      }
+      std::tie(m.phi, m.phi_err) = weighted_mean(phis);
+      std::tie(m.mu, m.mu_err) = weighted_mean(mus);
+      m.source = merged_source(sources);
+    }
+    out.push_back(m);
+  }
+  return out;
+}
+
+std::vector<ShearPoint> merge_repeats(std::vector<ShearPoint> points) {
+  std::map<std::tuple<std::string, double>, std::vector<std::size_t>> groups;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    groups[{points[i].set, points[i].shear_rate}].push_back(i);
+  }
+  std::vector<ShearPoint> out;
+  out.reserve(groups.size());
+  for (const auto& [key, idx] : groups) {
+    ShearPoint m = points[idx[0]];
+    if (idx.size() > 1) {
+      std::vector<std::pair<double, double>> sigmas;
+      std::vector<std::string> sources;
+      double phi_sum = 0.0;
+      for (std::size_t i : idx) {
+        sigmas.emplace_back(points[i].sigma, points[i].sigma_err);
+        sources.push_back(points[i].source);
+        phi_sum += points[i].phi;
+      }
+      std::tie(m.sigma, m.sigma_err) = weighted_mean(sigmas);
+      // Constant volume: identical phi; constant pressure: the measured phi of
+      // repeated runs, averaged (its error is neglected by the collapse).
+      m.phi = phi_sum / static_cast<double>(idx.size());
+      m.source = merged_source(sources);
+    }
+    out.push_back(m);
+  }
+  return out;
+}
+
+}  // namespace jamflow::analysis

@@ -1,0 +1,75 @@
+// Input data of the analyses (SPEC §5): state-point summaries read from CSV
+// tables or from the HDF5 run files written by `jamflow run`.
+//
+// Two record kinds:
+//  - GranularPoint: a constant-pressure state point (N, P, gdot, phi, mu),
+//    with the viscous number J = gdot eta_0 / P (eta_0 = 1 in simulation units);
+//  - ShearPoint: a flow-curve point (N, phi, gdot, sigma_xy) for the
+//    Olsson–Teitel collapse, grouped into curves ("sets").
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace jamflow::analysis {
+
+struct GranularPoint {
+  std::int64_t n = 0;
+  double pressure = 0.0;    // imposed P
+  double shear_rate = 0.0;  // gdot
+  double j = 0.0;           // gdot / P
+  double phi = 0.0, phi_err = 0.0;
+  double mu = 0.0, mu_err = 0.0;
+  std::string source;  // "file:line" or the run file, for messages
+};
+
+struct ShearPoint {
+  std::int64_t n = 0;
+  double phi = 0.0;
+  double shear_rate = 0.0;
+  double sigma = 0.0, sigma_err = 0.0;  // sigma_xy
+  // The curve the point belongs to: constant volume -> "N=..,phi=..";
+  // constant pressure -> "N=..,P=..". The collapse measure never compares a
+  // point with its own curve.
+  std::string set;
+  std::string source;
+};
+
+// The /summary group and root attributes of one `jamflow run` output file.
+struct RunSummary {
+  std::string path;
+  std::string scene, version, git_commit, created;
+  std::string ensemble;  // "constant_volume" or "constant_pressure"
+  std::int64_t n = 0;
+  double sigma_xy = 0, sigma_xy_err = 0, pressure = 0, pressure_err = 0;
+  double phi = 0, phi_err = 0, eta = 0, eta_err = 0, mu = 0, mu_err = 0;
+  double j = 0, energy_balance = 0, shear_rate = 0, alpha = 0;
+  bool has_imposed_pressure = false;
+  double imposed_pressure = 0;
+};
+
+// Reads one run file with the HDF5 C API. Throws InputError naming the file
+// and the missing or mistyped attribute.
+RunSummary read_run_summary(const std::string& path);
+
+// True if the file starts with the HDF5 signature.
+bool is_hdf5_file(const std::string& path);
+
+// Reads granular (constant-pressure) data from CSV tables with columns
+// N,P,gdot,phi,phi_err,mu,mu_err (any order, extra columns ignored) and from
+// constant-pressure run files. Repeated state points (same N, P, gdot: the
+// independent runs of SPEC §5) are merged by inverse-variance weighting.
+std::vector<GranularPoint> read_granular(const std::vector<std::string>& paths);
+
+// Reads flow curves for the Olsson–Teitel collapse from CSV tables with
+// columns N,phi,gdot,sigma_xy,sigma_xy_err, from granular CSV tables
+// (sigma_xy = mu P), and from run files of either ensemble. Repeated points
+// (same curve and gdot) are merged by inverse-variance weighting.
+std::vector<ShearPoint> read_shear(const std::vector<std::string>& paths);
+
+// Merging used by the readers (exposed for tests).
+std::vector<GranularPoint> merge_repeats(std::vector<GranularPoint> points);
+std::vector<ShearPoint> merge_repeats(std::vector<ShearPoint> points);
+
+}  // namespace jamflow::analysis

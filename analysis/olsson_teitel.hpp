@@ -1,0 +1,129 @@
+// Olsson–Teitel two-branch scaling (paper label `teitel`, Fig. 9):
+//   sigma_xy = |phi - phi_J|^alpha G_pm( gdot / |phi - phi_J|^(alpha+beta) ),
+// and a quantitative collapse-quality measure: Houdayer & Hartmann,
+// Phys. Rev. B 70, 014418 (2004). In the scaled variables
+//   x = ln gdot - (alpha+beta) ln|phi - phi_J|,  y = ln sigma - alpha ln|phi - phi_J|,
+// each point i of one branch is compared with the master curve Y(x_i) estimated
+// from the *other* curves of that branch only: from each other curve the two
+// points bracketing x_i, through which a weighted straight line is fitted.
+//   S = (1/N_used) sum_i (y_i - Y_i)^2 / (dy_i^2 + dY_i^2),
+// dy_i = sigma_err/sigma, dY_i the error of the line at x_i. S ~ 1 for a
+// collapse consistent with the data errors, S >> 1 for a bad one. Points
+// without bracketing neighbours do not count.
+// We use it rather than Bhattacharjee–Seno because it weighs residuals by
+// the data errors, so S has an absolute meaning ("consistent within errors"),
+// which is what "acceptable collapse" means in the paper.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "analysis/data.hpp"
+#include "analysis/fit.hpp"
+
+namespace jamflow::analysis {
+
+struct CollapseParams {
+  double phi_j = 0.6474;  // paper: best phi_J
+  double alpha = 1.33;    // paper: 1/x
+  double beta = 2.55;     // paper: 1/b_phi
+};
+
+struct CollapseQuality {
+  double s = 0.0;         // Houdayer–Hartmann S
+  std::size_t used = 0;   // points with neighbours on another curve
+  std::size_t total = 0;  // points in the data (not at phi = phi_J)
+  // Spread of S if the residuals were Gaussian with the observed mean square:
+  // a mean of N_used noncentral chi2(1) terms has variance (2 + 4 (S-1)) / N_used
+  // (correlations between neighbouring interpolations are neglected).
+  double error() const;
+  // Consistent with a perfect collapse: S <= 1 + 3 sqrt(2/N_used), the
+  // 3-sigma upper end of S for Gaussian residuals with the stated errors.
+  bool acceptable() const;
+};
+
+class HoudayerHartmann {
+ public:
+  explicit HoudayerHartmann(std::vector<ShearPoint> points);
+
+  // Quality at the given parameters; sigma_override (one per point) replaces
+  // the measured stresses, for the bootstrap.
+  CollapseQuality evaluate(const CollapseParams& p,
+                           const std::vector<double>* sigma_override = nullptr) const;
+
+  // Scaled coordinates of every point (for plots): x = gdot/|dphi|^(a+b),
+  // y = sigma/|dphi|^a, branch = sign(phi - phi_J).
+  struct Scaled {
+    double x, y, dy_rel;
+    int branch;
+    std::size_t set;
+  };
+  std::vector<Scaled> scaled(const CollapseParams& p) const;
+
+  const std::vector<ShearPoint>& points() const { return points_; }
+  const std::vector<std::string>& set_names() const { return set_names_; }
+
+ private:
+  std::vector<ShearPoint> points_;
+  std::vector<std::size_t> set_of_;
+  std::vector<std::string> set_names_;
+  std::vector<double> log_gdot_, log_sigma_, dy_;
+};
+
+struct OlssonTeitelOptions {
+  CollapseParams at;                    // --at
+  std::optional<CollapseParams> start;  // optimiser start (default: at)
+  int bootstrap = 100;                  // resamples for the errors
+  std::uint64_t seed = 20150112;
+  double min_overlap = 0.5;           // optimiser: fraction of points that must have neighbours
+  std::optional<double> split_delta;  // near/far split in |phi - phi_J| (default: median)
+  std::optional<double> split_gdot;   // slow/fast split in gdot (default: geometric median)
+  std::size_t min_subset_points = 12;
+};
+
+struct CollapseFit {
+  CollapseParams best;
+  Measured phi_j, alpha, beta;  // errors: parametric-bootstrap standard deviations
+  CollapseQuality quality;
+  int bootstrap_used = 0;
+};
+
+struct CollapseSubset {
+  std::string name, description;
+  std::vector<std::size_t> indices;  // into the data
+  std::optional<CollapseFit> fit;
+  std::string skipped;                     // reason, if not fitted
+  CollapseQuality at_global_best;          // this subset at the global optimum
+  CollapseQuality complement_at_own_best;  // the rest of the data at this subset's optimum
+  CollapseQuality complement_at_global_best;
+  // True when the subset's own optimum improves the subset but worsens the
+  // rest, and leaves the rest with an unacceptable collapse: the paper's
+  // "improving one part of the plot deteriorates another" (Sec. V B).
+  bool trade_off = false;
+};
+
+struct OlssonTeitelResult {
+  std::int64_t n = 0;
+  std::size_t points = 0, sets = 0;
+  CollapseParams at;
+  CollapseQuality at_quality;
+  CollapseFit best;
+  std::vector<CollapseSubset> subsets;
+  double split_delta = 0.0, split_gdot = 0.0;
+  std::vector<std::string> warnings;
+};
+
+// Nelder–Mead (gsl_multimin nmsimplex2) on S over (phi_J, alpha, beta),
+// restarted from its own optimum; errors from a parametric bootstrap (each
+// sigma redrawn log-normally within its error, the optimiser rerun). The
+// bootstrap is chosen over the curvature because S is only piecewise smooth:
+// it jumps whenever a point gains or loses a bracketing neighbour.
+CollapseFit optimize_collapse(const HoudayerHartmann& hh, const CollapseParams& start,
+                              const OlssonTeitelOptions& options, std::uint64_t seed);
+
+OlssonTeitelResult analyze_olsson_teitel(const std::vector<ShearPoint>& points,
+                                         const OlssonTeitelOptions& options);
+
+}  // namespace jamflow::analysis

@@ -1,0 +1,686 @@
+// JSON, markdown and plot-sidecar outputs of the analyses (see report.hpp).
+#include "analysis/report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+namespace jamflow::analysis {
+
+namespace {
+
+std::string fmt(double x, const char* f = "%.6g") {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, x);
+  return buf;
+}
+
+Json fit_summary(const FitResult& f) {
+  Json j = Json::object();
+  j["chi2"] = f.chi2;
+  j["dof"] = f.dof;
+  j["errors_scaled_by_chi2"] = f.errors_scaled;
+  // Correlation matrix: the parameters of one fit are strongly correlated
+  // (phi_J with b_phi, ...), which matters for anyone combining them.
+  Json corr = Json::array();
+  for (std::size_t a = 0; a < f.size(); ++a) {
+    std::vector<double> row;
+    for (std::size_t b = 0; b < f.size(); ++b) {
+      row.push_back(f.cov(a, b) / std::sqrt(f.cov(a, a) * f.cov(b, b)));
+    }
+    corr.push_back(Json(row));
+  }
+  Json names = Json::array();
+  for (const auto& n : f.names)
+    names.push_back(n);
+  j["parameters"] = names;
+  j["correlation"] = corr;
+  return j;
+}
+
+Json strings_json(const std::vector<std::string>& xs) {
+  Json a = Json::array();
+  for (const auto& x : xs)
+    a.push_back(x);
+  return a;
+}
+
+Json quality_json(const CollapseQuality& q) {
+  Json j = Json::object();
+  if (q.used == 0) {
+    // Explicitly undefined, never a silent NaN: no point had a neighbour.
+    j["value"] = Json();
+    j["error"] = Json();
+    j["undefined_reason"] = "no point has a bracketing neighbour on another curve";
+  } else {
+    j["value"] = q.s;
+    j["error"] = q.error();
+  }
+  j["acceptable"] = q.acceptable();
+  j["points_used"] = static_cast<std::int64_t>(q.used);
+  j["points_total"] = static_cast<std::int64_t>(q.total);
+  return j;
+}
+
+std::string quality_md(const CollapseQuality& q) {
+  if (q.used == 0)
+    return "undefined (no overlap)";
+  return format_measured({q.s, q.error()}) + " (" + std::to_string(q.used) + "/" +
+         std::to_string(q.total) + " pts)";
+}
+
+std::string pull_md(double value, double error, double ref) {
+  if (!(error > 0))
+    return "";
+  return fmt((value - ref) / error, "%+.1f");
+}
+
+void inputs_md(std::ostringstream& md, const std::vector<std::string>& inputs) {
+  md << "Inputs (" << inputs.size() << " file" << (inputs.size() == 1 ? "" : "s") << "): ";
+  for (std::size_t i = 0; i < inputs.size() && i < 8; ++i)
+    md << (i ? ", " : "") << "`" << inputs[i] << "`";
+  if (inputs.size() > 8)
+    md << ", ...";
+  md << "\n\n";
+}
+
+void notes_md(std::ostringstream& md, const std::vector<std::string>& warnings,
+              const std::vector<std::string>& failures) {
+  if (warnings.empty() && failures.empty())
+    return;
+  md << "## Notes\n\n";
+  for (const auto& w : warnings)
+    md << "- warning: " << w << "\n";
+  for (const auto& f : failures)
+    md << "- **failed**: " << f << "\n";
+  md << "\n";
+}
+
+}  // namespace
+
+Json measured_json(const Measured& m) {
+  Json j = Json::object();
+  j["value"] = m.value;
+  j["error"] = m.error;
+  return j;
+}
+
+std::string format_measured(const Measured& m) {
+  const double v = m.value, e = m.error;
+  if (!std::isfinite(v) || !std::isfinite(e))
+    return fmt(v) + " ± " + fmt(e);
+  const double av = std::fabs(v);
+  if (e > 0 && e < 1e5 && (av == 0 || (av >= 1e-4 && av < 1e6)) &&
+      e >= 1e-10 * std::max(av, 1e-300)) {
+    int decimals = 1 - static_cast<int>(std::floor(std::log10(e)));
+    decimals = std::clamp(decimals, 0, 12);
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%.*f ± %.*f", decimals, v, decimals, e);
+    return buf;
+  }
+  if (e == 0)
+    return fmt(v) + " (exact)";
+  return fmt(v, "%.4e") + " ± " + fmt(e, "%.2e");
+}
+
+const PaperTable2Entry& paper_table2(const std::string& parameter) {
+  static const std::map<std::string, PaperTable2Entry> table = {
+      {"phi_J", {0.6474, -0.323, 0.852}}, {"b_phi", {0.391, 0.756, 0.505}},
+      {"C_phi", {0.0683, -1.15, 1.17}},   {"mu_J", {0.108, 0.279, 0.626}},
+      {"b_mu", {0.346, 2.93, 0.946}},     {"C_mu", {0.347, -1.44, 1.02}},
+  };
+  auto it = table.find(parameter);
+  if (it == table.end())
+    throw std::out_of_range("no Table 2 entry for " + parameter);
+  return it->second;
+}
+
+// --- hard sphere -------------------------------------------------------------
+
+namespace {
+
+Measured size_param(const SizeFit& s, const std::string& name) {
+  if (name == "phi_J" || name == "b_phi" || name == "C_phi")
+    return s.phi[name];
+  return s.mu[name];
+}
+
+Json viscosity_json(const ViscosityLaw& v) {
+  Json j = Json::object();
+  j["source"] = v.source;
+  Json params = Json::object();
+  const auto& names = hard_sphere_parameters();
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    params[names[i]] = measured_json({v.params[i], std::sqrt(v.covariance[i * names.size() + i])});
+  }
+  j["parameters"] = params;
+  j["formula"] =
+      "eta/eta_0 = amplitude_1 (phi_J - phi)^-exponent_1 + amplitude_2 (phi_J - phi)^-exponent_2";
+  j["amplitude_1"] = measured_json(v.amplitude_1);
+  j["exponent_1"] = measured_json(v.exponent_1);
+  j["amplitude_2"] = measured_json(v.amplitude_2);
+  j["exponent_2"] = measured_json(v.exponent_2);
+  j["crossover_delta_phi"] = measured_json(v.crossover_delta_phi);
+  j["window"] = Json(std::vector<double>{v.window_min, v.window_max});
+  j["effective_exponent"] = measured_json(v.effective_exponent);
+  j["local_exponent_at_phimin"] = measured_json(v.local_exponent_at_min);
+  j["local_exponent_at_phimax"] = measured_json(v.local_exponent_at_max);
+  return j;
+}
+
+}  // namespace
+
+Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
+                      const std::vector<std::string>& inputs) {
+  Json j = Json::object();
+  j["analysis"] = "hard-sphere";
+  j["inputs"] = strings_json(inputs);
+  Json opts = Json::object();
+  opts["envelope_z"] = o.envelope.z;
+  opts["scale_errors"] = o.scale_errors;
+  opts["dimension"] = o.dimension;
+  j["options"] = opts;
+  Json sizes = Json::object();
+  for (const auto& s : r.sizes) {
+    Json js = Json::object();
+    for (const auto& name : hard_sphere_parameters())
+      js[name] = measured_json(size_param(s, name));
+    js["points_used"] = static_cast<std::int64_t>(s.points_used);
+    js["points_total"] = static_cast<std::int64_t>(s.points.size());
+    js["J_range"] = Json(std::vector<double>{s.j_min, s.j_max});
+    js["fit_phi"] = fit_summary(s.phi);
+    js["fit_mu"] = fit_summary(s.mu);
+    sizes[std::to_string(s.n)] = js;
+  }
+  j["sizes"] = sizes;
+  Json ex = Json::object();
+  if (!r.extrapolation_skipped.empty()) {
+    ex["skipped"] = r.extrapolation_skipped;
+  }
+  for (const auto& e : r.extrapolations) {
+    Json je = Json::object();
+    switch (e.status) {
+      case Extrapolation::Status::kFit:
+        je["status"] = "fit";
+        je["inf"] = measured_json(e.fit->at(0));
+        je["A"] = measured_json(e.fit->at(1));
+        je["alpha"] = measured_json(e.fit->at(2));
+        je["fit"] = fit_summary(*e.fit);
+        break;
+      case Extrapolation::Status::kExponentUnbounded: {
+        je["status"] = "alpha_unbounded";
+        je["inf"] = measured_json(e.inf);
+        Json alpha = Json::object();
+        alpha["lower_bound"] = e.alpha_lower_bound;
+        je["alpha"] = alpha;
+        je["chi2"] = e.chi2;
+        je["dof"] = e.dof;
+        je["note"] = e.message;
+        break;
+      }
+      case Extrapolation::Status::kConstant:
+        je["status"] = "constant";
+        je["inf"] = measured_json(e.inf);
+        je["chi2"] = e.chi2;
+        je["dof"] = e.dof;
+        je["note"] = e.message;
+        break;
+      case Extrapolation::Status::kNotResolved:
+        je["status"] = "not_resolved";
+        je["note"] = e.message;
+        break;
+      case Extrapolation::Status::kFailed:
+        je["status"] = "failed";
+        je["failed"] = e.message;
+        break;
+    }
+    ex[e.parameter] = je;
+  }
+  j["extrapolated"] = ex;
+  Json nu = Json::object();
+  if (r.nu_phi)
+    nu["from_phi"] = measured_json(*r.nu_phi);
+  if (r.nu_mu)
+    nu["from_mu"] = measured_json(*r.nu_mu);
+  nu["dimension"] = o.dimension;
+  nu["formula"] = "nu = b_inf / (alpha_O d), O = phi_J (from_phi) or mu_J (from_mu)";
+  j["nu"] = nu;
+  if (r.viscosity)
+    j["viscosity"] = viscosity_json(*r.viscosity);
+  j["warnings"] = strings_json(r.warnings);
+  j["failures"] = strings_json(r.failures);
+  return j;
+}
+
+std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOptions& o,
+                                 const std::vector<std::string>& inputs) {
+  std::ostringstream md;
+  md << "# Granular rheology: hard-sphere and large-N limits\n\n";
+  inputs_md(md, inputs);
+  md << "Hard-sphere envelope: a point is kept when its phi and mu agree within "
+     << fmt(o.envelope.z)
+     << " sigma with the next lower pressure at the same J (or, where no lower pressure "
+        "reaches that J, with the next higher one); the first disagreement with a lower "
+        "pressure ends that pressure's envelope. Errors are 1 sigma from the fit covariance"
+     << (o.scale_errors ? ", scaled by sqrt(chi2/dof)" : " (not scaled by chi2/dof)") << ".\n\n";
+  md << "## Per-size fits: phi = phi_J - C_phi J^b_phi, mu = mu_J + C_mu J^b_mu\n\n";
+  md << "| N | points | J range | phi_J | b_phi | C_phi | mu_J | b_mu | C_mu | chi2/dof phi | "
+        "chi2/dof mu |\n";
+  md << "|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const auto& s : r.sizes) {
+    md << "| " << s.n << " | " << s.points_used << "/" << s.points.size() << " | "
+       << fmt(s.j_min, "%.2g") << "–" << fmt(s.j_max, "%.2g");
+    for (const auto& name : hard_sphere_parameters()) {
+      md << " | " << format_measured(size_param(s, name));
+    }
+    md << " | " << fmt(s.phi.reduced_chi2(), "%.2f") << " | " << fmt(s.mu.reduced_chi2(), "%.2f")
+       << " |\n";
+  }
+  md << "\n## Large-N extrapolation O(N) = O_inf + A_O N^-alpha_O, compared with Table 2\n\n";
+  if (!r.extrapolation_skipped.empty()) {
+    md << "Skipped: " << r.extrapolation_skipped << ".\n\n";
+  } else {
+    md << "| O | O_inf | paper | pull | A_O | paper | alpha_O | paper | chi2/dof |\n";
+    md << "|---|---|---|---|---|---|---|---|---|\n";
+    for (const auto& e : r.extrapolations) {
+      const auto& t = paper_table2(e.parameter);
+      if (e.status == Extrapolation::Status::kFailed ||
+          e.status == Extrapolation::Status::kNotResolved) {
+        md << "| " << e.parameter << " | "
+           << (e.status == Extrapolation::Status::kFailed ? "failed" : "not resolved") << " | "
+           << fmt(t.inf) << " | | | " << fmt(t.a) << " | | " << fmt(t.alpha) << " | |\n";
+        continue;
+      }
+      md << "| " << e.parameter << " | " << format_measured(e.inf) << " | " << fmt(t.inf) << " | "
+         << pull_md(e.inf.value, e.inf.error, t.inf) << " | ";
+      if (e.status == Extrapolation::Status::kFit) {
+        md << format_measured(e.fit->at(1)) << " | " << fmt(t.a) << " | "
+           << format_measured(e.fit->at(2)) << " | " << fmt(t.alpha) << " | "
+           << fmt(e.fit->reduced_chi2(), "%.2f") << " |\n";
+      } else if (e.status == Extrapolation::Status::kConstant) {
+        md << "no significant N-dependence | " << fmt(t.a) << " | | " << fmt(t.alpha) << " | "
+           << fmt(e.chi2 / std::max(e.dof, 1), "%.2f") << " |\n";
+      } else {
+        md << "not resolved | " << fmt(t.a) << " | > " << fmt(e.alpha_lower_bound, "%.3g") << " | "
+           << fmt(t.alpha) << " | " << fmt(e.chi2 / std::max(e.dof, 1), "%.2f") << " |\n";
+      }
+    }
+    md << "\n(pull = (ours - paper)/our error. A_O 'not resolved': chi2 keeps decreasing as "
+          "alpha grows, only the smallest size deviates; O_inf then has a profile-likelihood "
+          "error and alpha only a lower bound. 'no significant N-dependence': a constant fits; "
+          "O_inf is the weighted mean. O_inf 'not resolved': no convergence with N, O_inf "
+          "undetermined.)\n\n";
+  }
+  md << "## Correlation-length exponent nu = b / (alpha_O d), d = " << o.dimension << "\n\n";
+  md << "| from | nu | paper |\n|---|---|---|\n";
+  md << "| phi | " << (r.nu_phi ? format_measured(*r.nu_phi) : "n/a") << " | 0.153 |\n";
+  md << "| mu | " << (r.nu_mu ? format_measured(*r.nu_mu) : "n/a") << " | 0.184 |\n\n";
+  if (r.viscosity) {
+    const auto& v = *r.viscosity;
+    md << "## Viscosity law eta(phi) (" << v.source << ")\n\n";
+    md << "eta/eta_0 = a1 (phi_J - phi)^-e1 + a2 (phi_J - phi)^-e2\n\n";
+    md << "| quantity | value | paper |\n|---|---|---|\n";
+    md << "| a1 = mu_J C_phi^(1/b_phi) | " << format_measured(v.amplitude_1) << " | |\n";
+    md << "| e1 = 1/b_phi (asymptotic) | " << format_measured(v.exponent_1) << " | 2.55 |\n";
+    md << "| a2 = C_mu C_phi^((1-b_mu)/b_phi) | " << format_measured(v.amplitude_2) << " | |\n";
+    md << "| e2 = (1-b_mu)/b_phi | " << format_measured(v.exponent_2) << " | 1.67 |\n";
+    md << "| crossover phi_J - phi | " << format_measured(v.crossover_delta_phi)
+       << " | about 0.02 |\n";
+    md << "| effective exponent over phi in [" << fmt(v.window_min) << ", " << fmt(v.window_max)
+       << "] | " << format_measured(v.effective_exponent) << " | in [1.67, 2.55] |\n";
+    md << "| local exponent at phi = " << fmt(v.window_min) << " | "
+       << format_measured(v.local_exponent_at_min) << " | |\n";
+    md << "| local exponent at phi = " << fmt(v.window_max) << " | "
+       << format_measured(v.local_exponent_at_max) << " | |\n\n";
+  }
+  notes_md(md, r.warnings, r.failures);
+  return md.str();
+}
+
+Json hard_sphere_plot_data(const HardSphereResult& r) {
+  Json j = Json::object();
+  Json sizes = Json::array();
+  for (const auto& s : r.sizes) {
+    Json js = Json::object();
+    js["N"] = static_cast<std::int64_t>(s.n);
+    std::vector<double> p, jj, phi, phi_err, mu, mu_err;
+    Json status = Json::array();
+    for (const auto& e : s.points) {
+      p.push_back(e.point.pressure);
+      jj.push_back(e.point.j);
+      phi.push_back(e.point.phi);
+      phi_err.push_back(e.point.phi_err);
+      mu.push_back(e.point.mu);
+      mu_err.push_back(e.point.mu_err);
+      status.push_back(to_string(e.status));
+    }
+    js["P"] = Json(p);
+    js["J"] = Json(jj);
+    js["phi"] = Json(phi);
+    js["phi_err"] = Json(phi_err);
+    js["mu"] = Json(mu);
+    js["mu_err"] = Json(mu_err);
+    js["status"] = status;
+    Json params = Json::object();
+    for (const auto& name : hard_sphere_parameters()) {
+      Measured m = size_param(s, name);
+      params[name] = Json(std::vector<double>{m.value, m.error});
+    }
+    js["params"] = params;
+    js["J_range"] = Json(std::vector<double>{s.j_min, s.j_max});
+    sizes.push_back(js);
+  }
+  j["sizes"] = sizes;
+  Json ex = Json::object();
+  for (const auto& e : r.extrapolations) {
+    if (e.status == Extrapolation::Status::kFit) {
+      ex[e.parameter] = Json(e.fit->params);  // inf, A, alpha
+    } else if (e.status == Extrapolation::Status::kExponentUnbounded ||
+               e.status == Extrapolation::Status::kConstant) {
+      ex[e.parameter] = Json(std::vector<double>{e.inf.value});  // inf only
+    }
+  }
+  j["extrapolated"] = ex;
+  Json table = Json::object();
+  for (const auto& name : hard_sphere_parameters()) {
+    const auto& t = paper_table2(name);
+    table[name] = Json(std::vector<double>{t.inf, t.a, t.alpha});
+  }
+  j["table2"] = table;
+  if (r.viscosity) {
+    Json v = Json::object();
+    v["source"] = r.viscosity->source;
+    v["params"] = Json(r.viscosity->params);
+    v["window"] = Json(std::vector<double>{r.viscosity->window_min, r.viscosity->window_max});
+    j["viscosity"] = v;
+  }
+  return j;
+}
+
+// --- soft ----------------------------------------------------------------------
+
+Json soft_json(const SoftResult& r, const SoftOptions& o, const std::vector<std::string>& inputs) {
+  Json j = Json::object();
+  j["analysis"] = "soft";
+  j["inputs"] = strings_json(inputs);
+  Json opts = Json::object();
+  opts["envelope_z"] = o.hard_sphere.envelope.z;
+  opts["scale_errors"] = o.scale_errors;
+  opts["fixed_shape"] = o.fixed_shape.has_value();
+  j["options"] = opts;
+  Json sizes = Json::object();
+  for (const auto& s : r.sizes) {
+    Json js = Json::object();
+    js["phi_J0"] = measured_json(s.phi_fit.at(0));
+    js["c_phi"] = measured_json(s.phi_fit.at(1));
+    js["x"] = measured_json(s.phi_fit.at(2));
+    js["mu_J0"] = measured_json(s.mu_fit.at(0));
+    js["c_mu"] = measured_json(s.mu_fit.at(1));
+    js["y"] = measured_json(s.mu_fit.at(2));
+    js["fit_phi_J"] = fit_summary(s.phi_fit);
+    js["fit_mu_J"] = fit_summary(s.mu_fit);
+    Json shape = Json::object();
+    shape["source"] = s.shape.source;
+    shape["C_phi"] = measured_json({s.shape.c_phi, std::sqrt(s.shape.cov_phi[0])});
+    shape["b_phi"] = measured_json({s.shape.b_phi, std::sqrt(s.shape.cov_phi[3])});
+    shape["C_mu"] = measured_json({s.shape.c_mu, std::sqrt(s.shape.cov_mu[0])});
+    shape["b_mu"] = measured_json({s.shape.b_mu, std::sqrt(s.shape.cov_mu[3])});
+    js["hard_sphere_shape"] = shape;
+    Json pressures = Json::object();
+    for (const auto& c : s.pressures) {
+      Json jp = Json::object();
+      jp["phi_J"] = measured_json(c.phi_j);
+      jp["mu_J"] = measured_json(c.mu_j);
+      jp["phi_J_stat_error"] = c.phi_j_stat;
+      jp["mu_J_stat_error"] = c.mu_j_stat;
+      jp["points"] = static_cast<std::int64_t>(c.points);
+      jp["collapse_chi2_phi"] = c.chi2_phi;
+      jp["collapse_chi2_mu"] = c.chi2_mu;
+      jp["collapse_dof"] = static_cast<std::int64_t>(c.points - 1);
+      pressures[format_key(c.pressure)] = jp;
+    }
+    js["pressures"] = pressures;
+    Json y = Json::object();
+    y["formula"] =
+        "sigma_Y = amplitude_1 (phi - phi_J0)^exponent_1 - amplitude_2 (phi - phi_J0)^exponent_2";
+    y["amplitude_1"] = measured_json(s.yield.amplitude_1);
+    y["exponent_1"] = measured_json(s.yield.exponent_1);
+    y["amplitude_2"] = measured_json(s.yield.amplitude_2);
+    y["exponent_2"] = measured_json(s.yield.exponent_2);
+    js["yield"] = y;
+    sizes[std::to_string(s.n)] = js;
+  }
+  j["sizes"] = sizes;
+  j["warnings"] = strings_json(r.warnings);
+  return j;
+}
+
+std::string soft_markdown(const SoftResult& r, const SoftOptions& o,
+                          const std::vector<std::string>& inputs) {
+  std::ostringstream md;
+  md << "# Soft granular rheology\n\n";
+  inputs_md(md, inputs);
+  md << "phi(P,J) = phi_J(P) - C_phi J^b_phi, mu(P,J) = mu_J(P) + C_mu J^b_mu; phi_J(P), "
+        "mu_J(P) are the weighted-mean collapse of each pressure onto the P -> 0 shape "
+     << (o.fixed_shape ? "given by --hs-params" : "of the same N's hard-sphere fit")
+     << ". Errors of phi_J(P), mu_J(P) include the shape's uncertainty, which is common to "
+        "all pressures and enters the fits below as correlations.\n\n";
+  for (const auto& s : r.sizes) {
+    md << "## N = " << s.n << "\n\n";
+    md << "Shape (" << s.shape.source
+       << "): C_phi = " << format_measured({s.shape.c_phi, std::sqrt(s.shape.cov_phi[0])})
+       << ", b_phi = " << format_measured({s.shape.b_phi, std::sqrt(s.shape.cov_phi[3])})
+       << ", C_mu = " << format_measured({s.shape.c_mu, std::sqrt(s.shape.cov_mu[0])})
+       << ", b_mu = " << format_measured({s.shape.b_mu, std::sqrt(s.shape.cov_mu[3])}) << "\n\n";
+    md << "| P | points | phi_J(P) | chi2/dof | mu_J(P) | chi2/dof |\n|---|---|---|---|---|---|\n";
+    for (const auto& c : s.pressures) {
+      const double dof = static_cast<double>(c.points - 1);
+      md << "| " << format_key(c.pressure) << " | " << c.points << " | " << format_measured(c.phi_j)
+         << " | " << fmt(c.chi2_phi / dof, "%.2f") << " | " << format_measured(c.mu_j) << " | "
+         << fmt(c.chi2_mu / dof, "%.2f") << " |\n";
+    }
+    md << "\n| parameter | value | paper |\n|---|---|---|\n";
+    md << "| phi_J(0) | " << format_measured(s.phi_fit.at(0)) << " | |\n";
+    md << "| c_phi | " << format_measured(s.phi_fit.at(1)) << " | |\n";
+    md << "| x | " << format_measured(s.phi_fit.at(2)) << " | 0.75 |\n";
+    md << "| mu_J(0) | " << format_measured(s.mu_fit.at(0)) << " | |\n";
+    md << "| c_mu | " << format_measured(s.mu_fit.at(1)) << " | |\n";
+    md << "| y | " << format_measured(s.mu_fit.at(2)) << " | 0.56 |\n";
+    md << "| chi2/dof phi_J(P), mu_J(P) | " << fmt(s.phi_fit.reduced_chi2(), "%.2f") << ", "
+       << fmt(s.mu_fit.reduced_chi2(), "%.2f") << " | |\n\n";
+    md << "Yield stress sigma_Y = a1 (phi - phi_J0)^e1 - a2 (phi - phi_J0)^e2:\n\n";
+    md << "| quantity | value | paper |\n|---|---|---|\n";
+    md << "| a1 = mu_J(0) c_phi^(-1/x) | " << format_measured(s.yield.amplitude_1) << " | |\n";
+    md << "| e1 = 1/x | " << format_measured(s.yield.exponent_1) << " | 1.33 |\n";
+    md << "| a2 = c_mu c_phi^(-(1+y)/x) | " << format_measured(s.yield.amplitude_2) << " | |\n";
+    md << "| e2 = (1+y)/x | " << format_measured(s.yield.exponent_2) << " | 2.08 |\n\n";
+  }
+  notes_md(md, r.warnings, {});
+  return md.str();
+}
+
+Json soft_plot_data(const SoftResult& r) {
+  Json j = Json::object();
+  Json sizes = Json::array();
+  for (const auto& s : r.sizes) {
+    Json js = Json::object();
+    js["N"] = static_cast<std::int64_t>(s.n);
+    std::vector<double> p, jj, phi, phi_err, mu, mu_err;
+    for (const auto& g : s.points) {
+      p.push_back(g.pressure);
+      jj.push_back(g.j);
+      phi.push_back(g.phi);
+      phi_err.push_back(g.phi_err);
+      mu.push_back(g.mu);
+      mu_err.push_back(g.mu_err);
+    }
+    js["P"] = Json(p);
+    js["J"] = Json(jj);
+    js["phi"] = Json(phi);
+    js["phi_err"] = Json(phi_err);
+    js["mu"] = Json(mu);
+    js["mu_err"] = Json(mu_err);
+    js["shape"] =
+        Json(std::vector<double>{s.shape.c_phi, s.shape.b_phi, s.shape.c_mu, s.shape.b_mu});
+    std::vector<double> pp, pj, pje, mj, mje;
+    for (const auto& c : s.pressures) {
+      pp.push_back(c.pressure);
+      pj.push_back(c.phi_j.value);
+      pje.push_back(c.phi_j.error);
+      mj.push_back(c.mu_j.value);
+      mje.push_back(c.mu_j.error);
+    }
+    js["pressures"] = Json(pp);
+    js["phi_J"] = Json(pj);
+    js["phi_J_err"] = Json(pje);
+    js["mu_J"] = Json(mj);
+    js["mu_J_err"] = Json(mje);
+    js["phi_fit"] = Json(s.phi_fit.params);
+    js["mu_fit"] = Json(s.mu_fit.params);
+    sizes.push_back(js);
+  }
+  j["sizes"] = sizes;
+  return j;
+}
+
+// --- Olsson–Teitel -------------------------------------------------------------
+
+namespace {
+
+Json params_json(const CollapseParams& p) {
+  Json j = Json::object();
+  j["phi_J"] = p.phi_j;
+  j["alpha"] = p.alpha;
+  j["beta"] = p.beta;
+  return j;
+}
+
+Json collapse_fit_json(const CollapseFit& f) {
+  Json j = Json::object();
+  j["phi_J"] = measured_json(f.phi_j);
+  j["alpha"] = measured_json(f.alpha);
+  j["beta"] = measured_json(f.beta);
+  j["quality"] = quality_json(f.quality);
+  j["bootstrap_resamples"] = f.bootstrap_used;
+  return j;
+}
+
+}  // namespace
+
+Json olsson_teitel_json(const OlssonTeitelResult& r, const OlssonTeitelOptions& o,
+                        const std::vector<std::string>& inputs) {
+  Json j = Json::object();
+  j["analysis"] = "olsson-teitel";
+  j["inputs"] = strings_json(inputs);
+  j["measure"] = "Houdayer-Hartmann S (Phys. Rev. B 70, 014418 (2004)) in ln-ln scaled variables";
+  j["N"] = static_cast<std::int64_t>(r.n);
+  j["points"] = static_cast<std::int64_t>(r.points);
+  j["curves"] = static_cast<std::int64_t>(r.sets);
+  Json opts = Json::object();
+  opts["bootstrap"] = o.bootstrap;
+  opts["seed"] = static_cast<std::int64_t>(o.seed);
+  opts["min_overlap"] = o.min_overlap;
+  j["options"] = opts;
+  Json at = params_json(r.at);
+  at["quality"] = quality_json(r.at_quality);
+  j["at"] = at;
+  j["best"] = collapse_fit_json(r.best);
+  Json subsets = Json::object();
+  for (const auto& s : r.subsets) {
+    Json js = Json::object();
+    js["description"] = s.description;
+    js["points"] = static_cast<std::int64_t>(s.indices.size());
+    if (s.fit) {
+      Json f = collapse_fit_json(*s.fit);
+      for (const auto& [k, v] : f.members())
+        js[k] = v;
+      js["quality_at_global_best"] = quality_json(s.at_global_best);
+      js["complement_quality_at_subset_best"] = quality_json(s.complement_at_own_best);
+      js["complement_quality_at_global_best"] = quality_json(s.complement_at_global_best);
+      js["trade_off"] = s.trade_off;
+    } else {
+      js["skipped"] = s.skipped;
+    }
+    subsets[s.name] = js;
+  }
+  Json splits = Json::object();
+  splits["delta_phi"] = r.split_delta;
+  splits["gdot"] = r.split_gdot;
+  j["subset_splits"] = splits;
+  j["subsets"] = subsets;
+  j["warnings"] = strings_json(r.warnings);
+  return j;
+}
+
+std::string olsson_teitel_markdown(const OlssonTeitelResult& r, const OlssonTeitelOptions& o,
+                                   const std::vector<std::string>& inputs) {
+  std::ostringstream md;
+  md << "# Olsson–Teitel scaling: collapse quality\n\n";
+  inputs_md(md, inputs);
+  md << "sigma = |phi - phi_J|^alpha G_pm(gdot / |phi - phi_J|^(alpha+beta)), N = " << r.n << ", "
+     << r.points << " points on " << r.sets << " curves. Quality: Houdayer–Hartmann S (S ~ 1: "
+     << "collapse consistent with the errors; S >> 1: no collapse). Parameter errors: "
+     << "standard deviation over " << o.bootstrap << " parametric-bootstrap resamples.\n\n";
+  md << "| | phi_J | alpha | beta | S |\n|---|---|---|---|---|\n";
+  md << "| given (--at) | " << fmt(r.at.phi_j) << " | " << fmt(r.at.alpha) << " | "
+     << fmt(r.at.beta) << " | " << quality_md(r.at_quality) << " |\n";
+  md << "| optimum | " << format_measured(r.best.phi_j) << " | " << format_measured(r.best.alpha)
+     << " | " << format_measured(r.best.beta) << " | " << quality_md(r.best.quality) << " |\n";
+  md << "| paper (Fig. 9) | 0.6474 | 1.33 | 2.55 | no acceptable collapse |\n\n";
+  md << "## Sub-ranges\n\n";
+  md << "Each subset is optimised on its own; 'rest' is the complement. A trade-off means the "
+        "subset's optimum improves the subset but worsens the rest, leaving it with an "
+        "unacceptable collapse (S > 1 + 3 sqrt(2/N_used)): the paper's claim.\n\n";
+  md << "| subset | points | phi_J | alpha | beta | S subset (own opt.) | S subset (global opt.) "
+        "| S rest (subset opt.) | S rest (global opt.) | trade-off |\n";
+  md << "|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const auto& s : r.subsets) {
+    md << "| " << s.name << " (" << s.description << ") | " << s.indices.size();
+    if (!s.fit) {
+      md << " | skipped: " << s.skipped << " | | | | | | | |\n";
+      continue;
+    }
+    md << " | " << format_measured(s.fit->phi_j) << " | " << format_measured(s.fit->alpha) << " | "
+       << format_measured(s.fit->beta) << " | " << quality_md(s.fit->quality) << " | "
+       << quality_md(s.at_global_best) << " | " << quality_md(s.complement_at_own_best) << " | "
+       << quality_md(s.complement_at_global_best) << " | " << (s.trade_off ? "yes" : "no")
+       << " |\n";
+  }
+  md << "\n";
+  notes_md(md, r.warnings, {});
+  return md.str();
+}
+
+Json olsson_teitel_plot_data(const OlssonTeitelResult& r, const std::vector<ShearPoint>& points) {
+  HoudayerHartmann hh(points);
+  Json j = Json::object();
+  j["N"] = static_cast<std::int64_t>(r.n);
+  j["sets"] = strings_json(hh.set_names());
+  auto scaled_json = [&](const CollapseParams& p, const CollapseQuality& q) {
+    Json s = params_json(p);
+    if (q.used > 0)
+      s["quality"] = q.s;
+    std::vector<double> x, y, dy, branch, set;
+    for (const auto& v : hh.scaled(p)) {
+      x.push_back(v.x);
+      y.push_back(v.y);
+      dy.push_back(v.dy_rel);
+      branch.push_back(v.branch);
+      set.push_back(static_cast<double>(v.set));
+    }
+    s["x"] = Json(x);
+    s["y"] = Json(y);
+    s["dy_rel"] = Json(dy);
+    s["branch"] = Json(branch);
+    s["set"] = Json(set);
+    return s;
+  };
+  j["at"] = scaled_json(r.at, r.at_quality);
+  j["best"] = scaled_json(r.best.best, r.best.quality);
+  return j;
+}
+
+}  // namespace jamflow::analysis

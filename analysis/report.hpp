@@ -1,0 +1,44 @@
+// Outputs of the analyses: machine-readable JSON (every fitted quantity as
+// {"value": v, "error": e}), a markdown report with tables, and the plot
+// sidecar JSON read by the scripts in analysis/plots/.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "analysis/hard_sphere.hpp"
+#include "analysis/json.hpp"
+#include "analysis/olsson_teitel.hpp"
+#include "analysis/soft.hpp"
+
+namespace jamflow::analysis {
+
+Json measured_json(const Measured& m);
+
+// "0.6474 ± 0.0012" with the error to two significant digits.
+std::string format_measured(const Measured& m);
+
+// Table 2 of the paper (SPEC §5): row "inf", "A", "alpha" for each parameter.
+struct PaperTable2Entry {
+  double inf, a, alpha;
+};
+const PaperTable2Entry& paper_table2(const std::string& parameter);
+
+Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
+                      const std::vector<std::string>& inputs);
+std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOptions& o,
+                                 const std::vector<std::string>& inputs);
+Json hard_sphere_plot_data(const HardSphereResult& r);
+
+Json soft_json(const SoftResult& r, const SoftOptions& o, const std::vector<std::string>& inputs);
+std::string soft_markdown(const SoftResult& r, const SoftOptions& o,
+                          const std::vector<std::string>& inputs);
+Json soft_plot_data(const SoftResult& r);
+
+Json olsson_teitel_json(const OlssonTeitelResult& r, const OlssonTeitelOptions& o,
+                        const std::vector<std::string>& inputs);
+std::string olsson_teitel_markdown(const OlssonTeitelResult& r, const OlssonTeitelOptions& o,
+                                   const std::vector<std::string>& inputs);
+Json olsson_teitel_plot_data(const OlssonTeitelResult& r, const std::vector<ShearPoint>& points);
+
+}  // namespace jamflow::analysis

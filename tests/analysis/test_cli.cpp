@@ -1,0 +1,196 @@
+// `jamflow analyze` end to end: CSV in, JSON + markdown (+ plots) out, exit
+// codes and one-line error messages.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "analysis/analyze_cli.hpp"
+#include "analysis/json.hpp"
+#include "tests/analysis/synthetic.hpp"
+#include "tests/analysis/test_util.hpp"
+
+namespace jamflow::analysis {
+namespace {
+
+using testing::read_text;
+using testing::ScratchDir;
+
+std::string num(double x) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", x);
+  return buf;
+}
+
+std::string granular_csv(const std::vector<GranularPoint>& pts) {
+  std::string s = "N,P,gdot,phi,phi_err,mu,mu_err\n";
+  for (const auto& p : pts) {
+    s += std::to_string(p.n) + "," + num(p.pressure) + "," + num(p.shear_rate) + "," + num(p.phi) +
+         "," + num(p.phi_err) + "," + num(p.mu) + "," + num(p.mu_err) + "\n";
+  }
+  return s;
+}
+
+std::string shear_csv(const std::vector<ShearPoint>& pts) {
+  std::string s = "N,phi,gdot,sigma_xy,sigma_xy_err\n";
+  for (const auto& p : pts) {
+    s += std::to_string(p.n) + "," + num(p.phi) + "," + num(p.shear_rate) + "," + num(p.sigma) +
+         "," + num(p.sigma_err) + "\n";
+  }
+  return s;
+}
+
+struct CliRun {
+  int code;
+  std::string err;
+};
+
+CliRun run(const std::vector<std::string>& args) {
+  ::testing::internal::CaptureStderr();
+  ::testing::internal::CaptureStdout();
+  int code = analyze_main(args);
+  std::string err = ::testing::internal::GetCapturedStderr();
+  (void)::testing::internal::GetCapturedStdout();
+  return {code, err};
+}
+
+// Every field the issue names is an object {"value", "error"} with finite numbers.
+void expect_measured(const Json& j, const std::string& what) {
+  ASSERT_TRUE(j.is_object()) << what;
+  EXPECT_TRUE(j.at("value").is_number()) << what;
+  EXPECT_TRUE(j.at("error").is_number()) << what;
+  EXPECT_GE(j.at("error").as_number(), 0.0) << what;
+}
+
+TEST(Cli, HelpAndUsageErrors) {
+  EXPECT_EQ(run({"--help"}).code, 0);
+  EXPECT_EQ(run({"hard-sphere", "--help"}).code, 0);
+  CliRun none = run({});
+  EXPECT_EQ(none.code, 2);
+  EXPECT_NE(none.err.find("jamflow analyze: error:"), std::string::npos) << none.err;
+  EXPECT_EQ(run({"hard-sphere", "x.csv"}).code, 2);  // -o missing
+  CliRun missing = run({"hard-sphere", "/nonexistent/x.csv", "-o", "/tmp/x.json"});
+  EXPECT_EQ(missing.code, 2);
+  EXPECT_NE(missing.err.find("/nonexistent/x.csv: cannot open file"), std::string::npos)
+      << missing.err;
+  // One line per error.
+  EXPECT_EQ(std::count(missing.err.begin(), missing.err.end(), '\n'), 1);
+}
+
+TEST(Cli, HardSphereWritesJsonAndReport) {
+  ScratchDir dir;
+  testing::GranularSpec spec;
+  spec.sizes = {100, 300, 1000, 3000, 10000};
+  auto data = dir.write("granular.csv", granular_csv(testing::make_granular(spec)));
+  const std::string out = dir.file("hs.json");
+  CliRun r = run({"hard-sphere", data, "-o", out, "--no-plots", "--window", "0.58:0.635"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  Json j = Json::parse(read_text(out));
+  for (const char* n : {"100", "1000", "10000"}) {
+    const Json& s = j.at("sizes").at(n);
+    for (const char* k : {"phi_J", "b_phi", "C_phi", "mu_J", "b_mu", "C_mu"}) {
+      expect_measured(s.at(k), std::string(n) + "." + k);
+    }
+    EXPECT_GE(s.at("points_used").as_number(), 4.0);
+  }
+  for (const char* p : {"phi_J", "b_phi", "C_phi", "mu_J", "b_mu", "C_mu"}) {
+    const Json& e = j.at("extrapolated").at(p);
+    const std::string status = e.at("status").as_string();
+    ASSERT_NE(status, "failed") << p;
+    if (status == "not_resolved")
+      continue;
+    expect_measured(e.at("inf"), std::string(p) + ".inf");
+    if (status == "fit") {
+      expect_measured(e.at("A"), std::string(p) + ".A");
+      expect_measured(e.at("alpha"), std::string(p) + ".alpha");
+    }
+  }
+  // phi_J(N) varies strongly with N: its power law is always resolved.
+  EXPECT_EQ(j.at("extrapolated").at("phi_J").at("status").as_string(), "fit");
+  expect_measured(j.at("nu").at("from_phi"), "nu.from_phi");
+  expect_measured(j.at("nu").at("from_mu"), "nu.from_mu");
+  expect_measured(j.at("viscosity").at("effective_exponent"), "effective exponent");
+  EXPECT_EQ(j.at("viscosity").at("window").at(1).as_number(), 0.635);
+  const std::string md = read_text(dir.file("hs.md"));
+  EXPECT_NE(md.find("compared with Table 2"), std::string::npos);
+  EXPECT_NE(md.find("| phi_J | 0.647"), std::string::npos) << md;
+}
+
+TEST(Cli, HardSphereReportsBadWindowAsUsageError) {
+  ScratchDir dir;
+  testing::GranularSpec spec;
+  auto data = dir.write("g.csv", granular_csv(testing::make_granular(spec)));
+  CliRun r = run({"hard-sphere", data, "-o", dir.file("hs.json"), "--no-plots", "--window", "0.6"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--window"), std::string::npos) << r.err;
+  r = run({"hard-sphere", data, "-o", dir.file("hs.json"), "--no-plots", "--window", "0.6:0.7"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("phi_J"), std::string::npos) << r.err;
+}
+
+TEST(Cli, SoftWritesPerPressureResults) {
+  ScratchDir dir;
+  testing::GranularSpec spec;
+  spec.pressures = {1e-7, 1e-6, 1e-5, 1e-4, 1e-3};
+  auto data = dir.write("granular.csv", granular_csv(testing::make_granular(spec)));
+  const std::string out = dir.file("soft.json");
+  CliRun r = run({"soft", data, "-o", out, "--no-plots"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  Json j = Json::parse(read_text(out));
+  const Json& s = j.at("sizes").at("1000");
+  for (const char* k : {"phi_J0", "c_phi", "x", "mu_J0", "c_mu", "y"})
+    expect_measured(s.at(k), k);
+  expect_measured(s.at("pressures").at("1e-05").at("phi_J"), "phi_J(1e-5)");
+  expect_measured(s.at("pressures").at("1e-05").at("mu_J"), "mu_J(1e-5)");
+  expect_measured(s.at("yield").at("exponent_1"), "yield exponent");
+  CliRun bad = run({"soft", data, "-o", out, "--no-plots", "--hs-params", "0.4:0.07:x:0.35"});
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find("--hs-params"), std::string::npos) << bad.err;
+}
+
+TEST(Cli, OlssonTeitelWithPlotsOrAWarningWhenPythonIsMissing) {
+  ScratchDir dir;
+  testing::TwoBranchSpec spec;
+  auto data = dir.write("cv.csv", shear_csv(testing::make_two_branch(spec)));
+  const std::string out = dir.file("ot.json");
+  // No interpreter: a one-line warning, JSON and markdown still written, exit 0.
+  ::setenv("JAMFLOW_PYTHON", "/nonexistent/python3", 1);
+  CliRun r =
+      run({"olsson-teitel", data, "-o", out, "--bootstrap", "10", "--at", "0.6474:1.33:2.55"});
+  ::unsetenv("JAMFLOW_PYTHON");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("warning: plots skipped"), std::string::npos) << r.err;
+  Json j = Json::parse(read_text(out));
+  for (const char* k : {"phi_J", "alpha", "beta"})
+    expect_measured(j.at("best").at(k), k);
+  expect_measured(j.at("best").at("quality"), "best.quality");
+  expect_measured(j.at("at").at("quality"), "at.quality");
+  for (const char* s : {"near", "far", "slow", "fast"}) {
+    expect_measured(j.at("subsets").at(s).at("phi_J"), s);
+    EXPECT_TRUE(j.at("subsets").at(s).contains("trade_off")) << s;
+  }
+  EXPECT_TRUE(std::filesystem::exists(dir.file("ot.md")));
+  // With the build's interpreter: the figure is drawn when matplotlib exists.
+  r = run({"olsson-teitel", data, "-o", out, "--bootstrap", "10"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  if (r.err.find("plots skipped") == std::string::npos) {
+    EXPECT_TRUE(std::filesystem::exists(dir.file("ot_fig9.png")));
+  }
+}
+
+TEST(Cli, RunFileWithoutSummaryIsAnInputError) {
+  ScratchDir dir;
+  // An HDF5 signature followed by garbage: recognised as HDF5, then rejected.
+  auto path = dir.write("broken.h5", std::string("\x89HDF\r\n\x1a\n", 8) + "garbage");
+  CliRun r = run({"olsson-teitel", path, "-o", dir.file("ot.json"), "--no-plots"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("broken.h5"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace jamflow::analysis

@@ -1,0 +1,260 @@
+// Readers: CSV tables (with file/line/column messages) and HDF5 run files
+// written here with the HDF5 C API, as `jamflow run` writes them.
+#include <gtest/gtest.h>
+#include <hdf5.h>
+
+#include <cmath>
+#include <map>
+#include <string>
+
+#include "analysis/data.hpp"
+#include "analysis/errors.hpp"
+#include "analysis/json.hpp"
+#include "tests/analysis/test_util.hpp"
+
+namespace jamflow::analysis {
+namespace {
+
+using testing::ScratchDir;
+
+// Expects an InputError whose message contains every fragment.
+template <class F>
+void expect_input_error(F&& f, std::initializer_list<std::string> fragments) {
+  try {
+    f();
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    for (const auto& frag : fragments) {
+      EXPECT_NE(std::string(e.what()).find(frag), std::string::npos)
+          << "message '" << e.what() << "' lacks '" << frag << "'";
+    }
+  }
+}
+
+TEST(CsvReader, ReadsGranularTableInAnyColumnOrderWithComments) {
+  ScratchDir dir;
+  auto path = dir.write("g.csv",
+                        "# comment line\n"
+                        "\n"
+                        "mu,mu_err,N,P,gdot,phi,phi_err,extra\n"
+                        "0.2,0.001,1000,1e-4,1e-6,0.63,1e-4,ignored\n"
+                        "0.25,0.002,1000,1e-4,1e-5,0.62,2e-4,ignored\r\n");
+  auto pts = read_granular({path});
+  ASSERT_EQ(pts.size(), 2u);
+  EXPECT_EQ(pts[0].n, 1000);
+  EXPECT_DOUBLE_EQ(pts[0].j, 1e-6 / 1e-4);
+  EXPECT_DOUBLE_EQ(pts[1].phi, 0.62);
+  EXPECT_DOUBLE_EQ(pts[1].mu_err, 0.002);
+}
+
+TEST(CsvReader, MalformedValueNamesFileLineAndColumn) {
+  ScratchDir dir;
+  auto path = dir.write("bad.csv",
+                        "N,P,gdot,phi,phi_err,mu,mu_err\n"
+                        "1000,1e-4,1e-6,0.63,1e-4,0.2,0.001\n"
+                        "1000,1e-4,1e-5,abc,1e-4,0.2,0.001\n");
+  expect_input_error([&] { read_granular({path}); }, {"bad.csv:3", "column 'phi'", "abc"});
+}
+
+TEST(CsvReader, NonFiniteAndOutOfRangeValuesAreRejected) {
+  ScratchDir dir;
+  const std::string head = "N,P,gdot,phi,phi_err,mu,mu_err\n";
+  auto nan = dir.write("nan.csv", head + "1000,1e-4,1e-6,0.63,1e-4,nan,0.001\n");
+  expect_input_error([&] { read_granular({nan}); }, {"nan.csv:2", "column 'mu'", "non-finite"});
+  auto inf = dir.write("inf.csv", head + "1000,1e-4,1e-6,0.63,inf,0.2,0.001\n");
+  expect_input_error([&] { read_granular({inf}); }, {"inf.csv:2", "column 'phi_err'"});
+  auto zero_err = dir.write("zero.csv", head + "1000,1e-4,1e-6,0.63,0,0.2,0.001\n");
+  expect_input_error([&] { read_granular({zero_err}); }, {"zero.csv:2", "phi_err", "> 0"});
+  auto phi = dir.write("phi.csv", head + "1000,1e-4,1e-6,1.63,1e-4,0.2,0.001\n");
+  expect_input_error([&] { read_granular({phi}); }, {"phi.csv:2", "0 < phi < 1"});
+  auto n = dir.write("n.csv", head + "10.5,1e-4,1e-6,0.63,1e-4,0.2,0.001\n");
+  expect_input_error([&] { read_granular({n}); }, {"n.csv:2", "column 'N'"});
+}
+
+TEST(CsvReader, StructuralErrors) {
+  ScratchDir dir;
+  auto fields = dir.write("f.csv", "N,P,gdot,phi,phi_err,mu,mu_err\n1000,1e-4,1e-6,0.63\n");
+  expect_input_error([&] { read_granular({fields}); }, {"f.csv:2", "expected 7", "found 4"});
+  auto cols = dir.write("c.csv", "N,P,gdot,phi\n1000,1e-4,1e-6,0.63\n");
+  expect_input_error([&] { read_granular({cols}); }, {"c.csv", "missing phi_err,mu,mu_err"});
+  auto empty = dir.write("e.csv", "# nothing\n");
+  expect_input_error([&] { read_granular({empty}); }, {"e.csv", "empty"});
+  expect_input_error([&] { read_granular({dir.file("missing.csv")}); },
+                     {"missing.csv", "cannot open"});
+  auto cv = dir.write("cv.csv", "N,phi,gdot,sigma_xy,sigma_xy_err\n1000,0.63,1e-6,1e-5,1e-7\n");
+  expect_input_error([&] { read_granular({cv}); }, {"cv.csv", "constant-volume"});
+}
+
+TEST(CsvReader, ShearTablesAndGranularTablesForTheCollapse) {
+  ScratchDir dir;
+  auto cv = dir.write("cv.csv",
+                      "N,phi,gdot,sigma_xy,sigma_xy_err\n"
+                      "1000,0.63,1e-6,1e-5,1e-7\n"
+                      "1000,0.64,1e-6,2e-5,1e-7\n");
+  auto g =
+      dir.write("g.csv", "N,P,gdot,phi,phi_err,mu,mu_err\n1000,1e-4,1e-6,0.63,1e-4,0.2,0.001\n");
+  auto pts = read_shear({cv, g});
+  ASSERT_EQ(pts.size(), 3u);
+  std::map<std::string, double> sigma_by_set;
+  for (const auto& p : pts)
+    sigma_by_set[p.set] = p.sigma;
+  EXPECT_DOUBLE_EQ(sigma_by_set.at("N=1000,P=" + format_key(1e-4)), 0.2 * 1e-4);  // mu P
+  EXPECT_EQ(sigma_by_set.count("N=1000,phi=0.63"), 1u);
+  auto neg = dir.write("neg.csv", "N,phi,gdot,sigma_xy,sigma_xy_err\n1000,0.63,1e-6,-1e-5,1e-7\n");
+  expect_input_error([&] { read_shear({neg}); }, {"neg.csv:2", "sigma_xy"});
+}
+
+TEST(Merging, RepeatedStatePointsAreInverseVarianceAveraged) {
+  GranularPoint a{1000, 1e-4, 1e-6, 1e-2, 0.630, 1e-4, 0.20, 0.01, "a"};
+  GranularPoint b{1000, 1e-4, 1e-6, 1e-2, 0.632, 2e-4, 0.22, 0.02, "b"};
+  auto m = merge_repeats(std::vector<GranularPoint>{a, b});
+  ASSERT_EQ(m.size(), 1u);
+  // weights 1/1e-8 and 1/4e-8 -> (4*0.630 + 0.632)/5
+  EXPECT_NEAR(m[0].phi, (4 * 0.630 + 0.632) / 5, 1e-15);
+  EXPECT_NEAR(m[0].phi_err, 1.0 / std::sqrt(1e8 + 0.25e8), 1e-15);
+  EXPECT_NEAR(m[0].mu, (4 * 0.20 + 0.22) / 5, 1e-15);
+}
+
+// --- HDF5 run files ------------------------------------------------------------
+
+void put_double(hid_t obj, const char* name, double v) {
+  hid_t space = H5Screate(H5S_SCALAR);
+  hid_t attr = H5Acreate2(obj, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT);
+  H5Awrite(attr, H5T_NATIVE_DOUBLE, &v);
+  H5Aclose(attr);
+  H5Sclose(space);
+}
+
+void put_int(hid_t obj, const char* name, std::int64_t v) {
+  hid_t space = H5Screate(H5S_SCALAR);
+  hid_t attr = H5Acreate2(obj, name, H5T_STD_I64LE, space, H5P_DEFAULT, H5P_DEFAULT);
+  H5Awrite(attr, H5T_NATIVE_INT64, &v);
+  H5Aclose(attr);
+  H5Sclose(space);
+}
+
+void put_string(hid_t obj, const char* name, const std::string& v, bool variable) {
+  hid_t type = H5Tcopy(H5T_C_S1);
+  H5Tset_size(type, variable ? H5T_VARIABLE : v.size());
+  hid_t space = H5Screate(H5S_SCALAR);
+  hid_t attr = H5Acreate2(obj, name, type, space, H5P_DEFAULT, H5P_DEFAULT);
+  if (variable) {
+    const char* p = v.c_str();
+    H5Awrite(attr, type, &p);
+  } else {
+    H5Awrite(attr, type, v.data());
+  }
+  H5Aclose(attr);
+  H5Sclose(space);
+  H5Tclose(type);
+}
+
+struct RunSpec {
+  std::string ensemble = "constant_pressure";
+  bool variable_strings = true;
+  bool with_imposed_pressure = true;
+  bool with_summary = true;
+  std::int64_t n = 1000;
+  double phi = 0.63, shear_rate = 1e-6, imposed_pressure = 1e-4, mu = 0.2, sigma_xy = 2e-5;
+};
+
+void write_run(const std::string& path, const RunSpec& s) {
+  hid_t file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  put_string(file, "scene", "[system]\nN = 1000\n", s.variable_strings);
+  put_string(file, "version", "0.1.0", s.variable_strings);
+  put_string(file, "git_commit", "abc", s.variable_strings);
+  put_string(file, "created", "2025-01-01T00:00:00Z", s.variable_strings);
+  if (s.with_summary) {
+    hid_t g = H5Gcreate2(file, "summary", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+    put_double(g, "sigma_xy", s.sigma_xy);
+    put_double(g, "sigma_xy_err", 1e-7);
+    put_double(g, "pressure", 1.01e-4);
+    put_double(g, "pressure_err", 1e-7);
+    put_double(g, "phi", s.phi);
+    put_double(g, "phi_err", 1e-4);
+    put_double(g, "eta", 20.0);
+    put_double(g, "eta_err", 0.1);
+    put_double(g, "mu", s.mu);
+    put_double(g, "mu_err", 1e-3);
+    put_double(g, "J", 1e-2);
+    put_double(g, "energy_balance", 1.0);
+    put_double(g, "shear_rate", s.shear_rate);
+    put_double(g, "alpha", 2.0);
+    put_int(g, "N", s.n);
+    put_string(g, "ensemble", s.ensemble, s.variable_strings);
+    if (s.with_imposed_pressure)
+      put_double(g, "imposed_pressure", s.imposed_pressure);
+    H5Gclose(g);
+  }
+  H5Fclose(file);
+}
+
+TEST(RunFileReader, ReadsSummaryWithVariableAndFixedLengthStrings) {
+  ScratchDir dir;
+  for (bool variable : {true, false}) {
+    RunSpec spec;
+    spec.variable_strings = variable;
+    const std::string path = dir.file(variable ? "v.h5" : "f.h5");
+    write_run(path, spec);
+    ASSERT_TRUE(is_hdf5_file(path));
+    RunSummary s = read_run_summary(path);
+    EXPECT_EQ(s.ensemble, "constant_pressure");
+    EXPECT_EQ(s.scene, "[system]\nN = 1000\n");
+    EXPECT_EQ(s.n, 1000);
+    EXPECT_TRUE(s.has_imposed_pressure);
+    EXPECT_DOUBLE_EQ(s.imposed_pressure, 1e-4);
+    EXPECT_DOUBLE_EQ(s.mu, 0.2);
+  }
+}
+
+TEST(RunFileReader, GranularUsesImposedPressureAndMergesRepeatedRuns) {
+  ScratchDir dir;
+  RunSpec a, b;
+  b.mu = 0.22;
+  write_run(dir.file("a.h5"), a);
+  write_run(dir.file("b.h5"), b);
+  auto pts = read_granular({dir.file("a.h5"), dir.file("b.h5")});
+  ASSERT_EQ(pts.size(), 1u);                // same N, P, gdot: two runs of one state point
+  EXPECT_DOUBLE_EQ(pts[0].pressure, 1e-4);  // imposed, not the measured 1.01e-4
+  EXPECT_DOUBLE_EQ(pts[0].j, 1e-2);
+  EXPECT_NEAR(pts[0].mu, 0.21, 1e-12);
+  EXPECT_NE(pts[0].source.find("+1 repeats"), std::string::npos);
+}
+
+TEST(RunFileReader, ConstantVolumeRunsFeedTheCollapseOnly) {
+  ScratchDir dir;
+  RunSpec cv;
+  cv.ensemble = "constant_volume";
+  cv.with_imposed_pressure = false;
+  write_run(dir.file("cv.h5"), cv);
+  auto pts = read_shear({dir.file("cv.h5")});
+  ASSERT_EQ(pts.size(), 1u);
+  EXPECT_DOUBLE_EQ(pts[0].sigma, 2e-5);
+  EXPECT_EQ(pts[0].set, "N=1000,phi=0.63");
+  expect_input_error([&] { read_granular({dir.file("cv.h5")}); },
+                     {"cv.h5", "constant_volume", "constant_pressure"});
+}
+
+TEST(RunFileReader, MissingPiecesAreNamed) {
+  ScratchDir dir;
+  RunSpec no_summary;
+  no_summary.with_summary = false;
+  write_run(dir.file("ns.h5"), no_summary);
+  expect_input_error([&] { read_run_summary(dir.file("ns.h5")); }, {"ns.h5", "/summary"});
+  RunSpec no_p;
+  no_p.with_imposed_pressure = false;
+  write_run(dir.file("np.h5"), no_p);
+  expect_input_error([&] { read_run_summary(dir.file("np.h5")); },
+                     {"np.h5", "missing attribute 'imposed_pressure'"});
+  RunSpec bad;
+  bad.ensemble = "nve";
+  write_run(dir.file("bad.h5"), bad);
+  expect_input_error([&] { read_run_summary(dir.file("bad.h5")); }, {"bad.h5", "'nve'"});
+  RunSpec nan;
+  nan.mu = std::nan("");
+  write_run(dir.file("nan.h5"), nan);
+  expect_input_error([&] { read_granular({dir.file("nan.h5")}); }, {"nan.h5", "mu", "finite"});
+}
+
+}  // namespace
+}  // namespace jamflow::analysis
