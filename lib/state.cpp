@@ -29,12 +29,15 @@ double State::packing_fraction() const {
 
 void State::wrap() {
   for (std::size_t k = 0; k < pos.size(); ++k) {
-    const double f = std::floor(pos[k]);
+    double f = std::floor(pos[k]);
     if (f != 0.0) {
       pos[k] -= f;
-      // floor can round a tiny negative value up to exactly 1.0
-      if (pos[k] >= 1.0)
+      // A tiny negative value minus floor (-1) rounds up to exactly 1.0: it belongs to this
+      // image, at 0, so the image counter must not move.
+      if (pos[k] >= 1.0) {
         pos[k] = 0.0;
+        f += 1.0;
+      }
       image[k] += static_cast<std::int32_t>(f);
     }
   }

@@ -234,6 +234,22 @@ TEST(Forces, ThreadCountChangesOnlyRoundOff) {
   }
 }
 
+TEST(State, WrapKeepsUnwrappedCoordinates) {
+  State s;
+  s.resize(4);
+  s.x()[0] = -1e-17;  // rounds to 1.0 after adding 1: must land at 0 in the same image
+  s.x()[1] = 2.25;
+  s.x()[2] = -0.75;
+  s.x()[3] = 0.5;
+  const std::vector<double> unwrapped = {-1e-17, 2.25, -0.75, 0.5};
+  s.wrap();
+  for (int i = 0; i < 4; ++i) {
+    EXPECT_GE(s.x()[i], 0.0);
+    EXPECT_LT(s.x()[i], 1.0);
+    EXPECT_NEAR(s.x()[i] + s.image[i], unwrapped[i], 1e-15) << i;
+  }
+}
+
 TEST(Potential, RejectsExponentOutsideRange) {
   EXPECT_THROW(ForceField(1.1, 1), ConfigError);
   EXPECT_THROW(ForceField(3.5, 1), ConfigError);
