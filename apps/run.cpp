@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <stdexcept>
 
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
@@ -243,14 +244,62 @@ Summary summarize(const RunSpec& spec, const Series& series) {
     out["eta_block_std"] = bs.block_std / gdot;
     out["J"] = gdot / p_ref;  // J = gdot eta_0 / P with eta_0 = xi_s / a = 1
   }
-  const double tau = integrated_autocorrelation(sigma) * spec.sample_every;
-  out["tau_sigma_xy"] = tau;
-  if (out["block_length"] < 2.0 * tau) {
-    sum.warnings.push_back("block length " + fmt(out["block_length"]) +
-                           " is shorter than 2 autocorrelation times of sigma_xy (tau = " +
-                           fmt(tau) + "); block errors are underestimated: lengthen t_av");
+  // Integrated autocorrelation times (in time units) of the main observables. Block errors
+  // are only trustworthy when a block spans at least about 2 of them. A constant series (phi
+  // at constant volume) has tau = half a sample and never warns.
+  const std::pair<const char*, const std::vector<double>*> correlated[] = {
+      {"sigma_xy", &sigma}, {"pressure", &press}, {"phi", &phi}};
+  for (const auto& [name, series_ptr] : correlated) {
+    const double tau = integrated_autocorrelation(*series_ptr) * spec.sample_every;
+    out[std::string("tau_") + name] = tau;
+    if (out["block_length"] < 2.0 * tau) {
+      sum.warnings.push_back("block length " + fmt(out["block_length"]) +
+                             " is shorter than 2 autocorrelation times of " + name + " (tau = " +
+                             fmt(tau) + "); block errors are underestimated: lengthen t_av");
+    }
   }
   return sum;
+}
+
+Summary combine_replicas(const std::vector<Summary>& summaries) {
+  if (summaries.empty())
+    throw std::invalid_argument("combine_replicas: no replicas");
+  const auto k = summaries.size();
+  auto ends_with = [](const std::string& s, const std::string& tail) {
+    return s.size() > tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
+  };
+  Summary out;
+  for (const auto& [name, first] : summaries.front().values) {
+    (void)first;
+    if (ends_with(name, "_err"))
+      continue;  // handled with its observable
+    std::vector<double> means, errors;
+    bool everywhere = true;
+    for (const auto& s : summaries) {
+      const auto it = s.values.find(name);
+      if (it == s.values.end()) {
+        everywhere = false;
+        break;
+      }
+      means.push_back(it->second);
+      const auto e = s.values.find(name + "_err");
+      errors.push_back(e == s.values.end() ? 0.0 : e->second);
+    }
+    if (!everywhere)
+      continue;
+    const ReplicaAverage ra = replica_average(means, errors);
+    out.values[name] = ra.mean;
+    if (summaries.front().values.count(name + "_err")) {
+      out.values[name + "_err"] = ra.block_error;
+      out.values[name + "_replica_err"] = ra.replica_error;
+    }
+  }
+  out.values["replicas"] = double(k);
+  for (std::size_t r = 0; r < k; ++r) {
+    for (const auto& w : summaries[r].warnings)
+      out.warnings.push_back("replica " + std::to_string(r) + ": " + w);
+  }
+  return out;
 }
 
 State initial_state(const RunSpec& spec, std::uint64_t seed) {
@@ -338,8 +387,10 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
 
 namespace {
 
+// `summary` replaces r's own summary values, counters and wall time (the replica mean at the
+// top level of a multi-replica file).
 void write_replica(H5Writer& w, const RunSpec& spec, const ReplicaResult& r,
-                   const std::string& prefix) {
+                   const std::string& prefix, const ReplicaResult* summary = nullptr) {
   const auto& ss = r.series;
   const std::string ts = prefix + "/timeseries";
   w.dataset(ts + "/time", ss.column(&Sample::time));
@@ -387,16 +438,17 @@ void write_replica(H5Writer& w, const RunSpec& spec, const ReplicaResult& r,
 
   const std::string sm = prefix + "/summary";
   w.group(sm);
-  for (const auto& [k, v] : r.summary.values)
+  const ReplicaResult& src = summary ? *summary : r;
+  for (const auto& [k, v] : src.summary.values)
     w.attr(sm, k, v);
   w.attr(sm, "N", static_cast<std::int64_t>(n));
   w.attr(sm, "alpha", spec.alpha);
   spec.ensemble->describe(w, sm);
   w.attr(sm, "integrator", spec.integrator_kind);
-  for (const auto& [k, v] : r.integrator_stats)
+  for (const auto& [k, v] : src.integrator_stats)
     w.attr(sm, "integrator_" + k, v);
-  w.attr(sm, "wall_seconds", r.wall_seconds);
-  w.attr(sm, "status", r.status);
+  w.attr(sm, "wall_seconds", src.wall_seconds);
+  w.attr(sm, "status", src.status);
 }
 
 }  // namespace
@@ -414,7 +466,24 @@ bool write_run_file(const RunSpec& spec, const std::vector<ReplicaResult>& repli
     if (r.status != "complete" && failed.empty())
       failed = r.status;
   }
-  write_replica(w, spec, replicas.front(), "");
+  if (replicas.size() > 1 && failed.empty()) {
+    // Top level: the first replica's series, final state, integrator counters and wall time
+    // (counters need not be additive, e.g. CVODE's atol), the summary of all replicas.
+    ReplicaResult all;
+    all.integrator_stats = replicas.front().integrator_stats;
+    all.wall_seconds = replicas.front().wall_seconds;
+    std::vector<Summary> sums;
+    double wall = 0.0;
+    for (const auto& r : replicas) {
+      sums.push_back(r.summary);
+      wall += r.wall_seconds;
+    }
+    all.summary = combine_replicas(sums);
+    all.summary.values["wall_seconds_total"] = wall;
+    write_replica(w, spec, replicas.front(), "", &all);
+  } else {
+    write_replica(w, spec, replicas.front(), "");
+  }
   if (replicas.size() > 1) {
     for (std::size_t k = 0; k < replicas.size(); ++k) {
       write_replica(w, spec, replicas[k], "/replicas/" + std::to_string(k));
@@ -446,23 +515,41 @@ int run_and_write(const RunSpec& spec, const RunOptions& options) {
                  results.back().status.c_str(), spec.file.c_str());
     return results.back().status.rfind("interrupted", 0) == 0 ? 130 : 1;
   }
+  std::vector<Summary> sums;
+  double wall = 0.0;
   for (const auto& r : results) {
-    for (const auto& wmsg : r.summary.warnings)
-      std::fprintf(stderr, "warning: %s\n", wmsg.c_str());
+    sums.push_back(r.summary);
+    wall += r.wall_seconds;
   }
-  const auto& v = results.front().summary.values;
-  auto get = [&](const char* k) { return v.count(k) ? v.at(k) : std::nan(""); };
+  const Summary combined = count > 1 ? combine_replicas(sums) : results.front().summary;
+  for (const auto& wmsg : combined.warnings)
+    std::fprintf(stderr, "warning: %s\n", wmsg.c_str());
+  const auto& v = combined.values;
+  auto get = [&](const std::string& k) { return v.count(k) ? v.at(k) : std::nan(""); };
   std::printf("jamflow run: N = %lld, %s, %s, gdot = %g -> %s\n", (long long)spec.n,
               spec.ensemble->name().c_str(), spec.integrator_kind.c_str(), spec.shear_rate,
               spec.file.c_str());
-  std::printf("  phi            = %.6f +- %.2e\n", get("phi"), get("phi_err"));
-  std::printf("  pressure       = %.6e +- %.2e\n", get("pressure"), get("pressure_err"));
-  std::printf("  sigma_xy       = %.6e +- %.2e\n", get("sigma_xy"), get("sigma_xy_err"));
-  std::printf("  eta            = %.6e +- %.2e\n", get("eta"), get("eta_err"));
-  std::printf("  mu             = %.6f +- %.2e\n", get("mu"), get("mu_err"));
+  if (count > 1) {
+    std::printf("  mean over %zu replicas +- block error +- replica-scatter error\n", count);
+  }
+  // With replicas: "value +- block error +- replica error"; alone: "value +- block error".
+  auto line = [&](const char* label, const std::string& k, const char* value_format) {
+    std::printf("  %-14s = ", label);
+    std::printf(value_format, get(k));
+    std::printf(" +- %.2e", get(k + "_err"));
+    if (count > 1)
+      std::printf(" +- %.2e", get(k + "_replica_err"));
+    std::printf("\n");
+  };
+  line("phi", "phi", "%.6f");
+  line("pressure", "pressure", "%.6e");
+  line("sigma_xy", "sigma_xy", "%.6e");
+  line("eta", "eta", "%.6e");
+  line("mu", "mu", "%.6f");
   std::printf("  J              = %.6e\n", get("J"));
   std::printf("  energy_balance = %.4f\n", get("energy_balance"));
-  std::printf("  wall time      = %.2f s\n", results.front().wall_seconds);
+  std::printf("  tau_sigma_xy   = %.4g\n", get("tau_sigma_xy"));
+  std::printf("  wall time      = %.2f s\n", wall);
   return 0;
 }
 

@@ -68,8 +68,17 @@ struct Summary {
   std::vector<std::string> warnings;
 };
 
-// Block-averaged observables over the window t >= t_eq.
+// Block-averaged observables over the window t >= t_eq, with the integrated autocorrelation
+// times tau_sigma_xy, tau_pressure, tau_phi (time units) and a warning for each that is longer
+// than half a block.
 Summary summarize(const RunSpec& spec, const Series& series);
+
+// The summary of K independent replicas: every value is the mean over replicas; each `<name>_err`
+// is the block error propagated to that mean, sqrt(sum_k err_k^2) / K; each observable with an
+// error also gets `<name>_replica_err` = (std over replicas) / sqrt(K), the error from the
+// replica scatter, which does not rely on blocks being uncorrelated. `replicas` = K. Warnings
+// are collected with the replica index.
+Summary combine_replicas(const std::vector<Summary>& summaries);
 
 struct ReplicaResult {
   Series series;
@@ -96,8 +105,10 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
 State initial_state(const RunSpec& spec, std::uint64_t seed);
 
 // Writes the HDF5 layout (see README "Output"). With several replicas, the first is written
-// at the top level and all of them under /replicas/<k>. Returns false if any replica failed
-// (then the file is kept as <file>.part with a status attribute).
+// at the top level and all of them under /replicas/<k>; the top-level /summary then holds
+// combine_replicas() of all of them plus wall_seconds_total (its integrator counters and
+// wall_seconds stay the first replica's). Returns
+// false if any replica failed (then the file is kept as <file>.part with a status attribute).
 bool write_run_file(const RunSpec& spec, const std::vector<ReplicaResult>& replicas,
                     const std::string& path);
 

@@ -1,7 +1,9 @@
 // Block averages and autocorrelation times.
 #include "lib/statistics.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <string>
 
 #include "lib/error.hpp"
@@ -52,7 +54,10 @@ double integrated_autocorrelation(const std::vector<double>& x) {
   for (double v : x)
     c0 += (v - m) * (v - m);
   c0 /= double(n);
-  if (!(c0 > 0.0))
+  // A constant series (phi at constant volume) leaves only round-off of the mean, which is
+  // perfectly correlated and would give tau ~ n: treat variance at round-off level as none.
+  const double eps = 1e-13 * std::max(std::abs(m), 1e-300);
+  if (!(c0 > eps * eps))
     return 0.5;
   double tau = 0.5;
   for (std::size_t k = 1; k < n / 2; ++k) {
@@ -65,6 +70,29 @@ double integrated_autocorrelation(const std::vector<double>& x) {
       break;
   }
   return tau < 0.5 ? 0.5 : tau;
+}
+
+ReplicaAverage replica_average(const std::vector<double>& means,
+                               const std::vector<double>& errors) {
+  if (means.empty() || means.size() != errors.size())
+    throw std::invalid_argument("replica_average: need one error per mean and at least one mean");
+  const double k = double(means.size());
+  ReplicaAverage out;
+  double e2 = 0.0;
+  for (std::size_t r = 0; r < means.size(); ++r) {
+    out.mean += means[r];
+    e2 += errors[r] * errors[r];
+  }
+  out.mean /= k;
+  out.block_error = std::sqrt(e2) / k;
+  if (means.size() > 1) {
+    double var = 0.0;
+    for (double m : means)
+      var += (m - out.mean) * (m - out.mean);
+    out.replica_std = std::sqrt(var / (k - 1.0));
+    out.replica_error = out.replica_std / std::sqrt(k);
+  }
+  return out;
 }
 
 }  // namespace jamflow

@@ -1,5 +1,5 @@
 // Time-series statistics: block averages with standard errors and the integrated
-// autocorrelation time.
+// autocorrelation time, and the combination of independent replicas.
 #pragma once
 #include <cstddef>
 #include <vector>
@@ -18,7 +18,19 @@ struct BlockAverage {
 BlockAverage block_average(const std::vector<double>& x, std::size_t blocks);
 
 // Integrated autocorrelation time in units of samples, tau = 1/2 + sum_k rho(k), with Sokal's
-// self-consistent window (stop at the first k >= c tau, c = 6). Returns 0.5 for white noise.
+// self-consistent window (stop at the first k >= c tau, c = 6). Returns 0.5 for white noise and
+// for a constant series (variance at the round-off level of the mean).
 double integrated_autocorrelation(const std::vector<double>& x);
+
+// K independent replicas of one observable, each with its own mean and block error.
+struct ReplicaAverage {
+  double mean = 0.0;           // mean over replicas
+  double block_error = 0.0;    // sqrt(sum_k err_k^2) / K: the block errors propagated to the mean
+  double replica_std = 0.0;    // standard deviation of the replica means (K - 1 in the denominator)
+  double replica_error = 0.0;  // replica_std / sqrt(K): the error from the replica scatter
+};
+
+// Requires means.size() == errors.size() >= 1; with one replica the scatter terms are 0.
+ReplicaAverage replica_average(const std::vector<double>& means, const std::vector<double>& errors);
 
 }  // namespace jamflow
