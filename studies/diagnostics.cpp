@@ -1,0 +1,764 @@
+// Stability and accuracy diagnostics shared by the timestep, stability and softness studies.
+#include "studies/diagnostics.hpp"
+
+#include <time.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <condition_variable>
+#include <cstdio>
+#include <limits>
+#include <mutex>
+#include <numbers>
+#include <thread>
+
+#include "lib/error.hpp"
+#include "lib/h5.hpp"
+
+namespace jamflow::studies {
+
+namespace {
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+}  // namespace
+
+double lag1_autocorrelation(const std::vector<double>& x) {
+  const std::size_t n = x.size();
+  if (n < 3)
+    return 0.0;
+  double m = 0.0;
+  for (double v : x)
+    m += v;
+  m /= double(n);
+  double num = 0.0, den = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    den += (x[i] - m) * (x[i] - m);
+    if (i + 1 < n)
+      num += (x[i] - m) * (x[i + 1] - m);
+  }
+  return den > 0.0 ? num / den : 0.0;
+}
+
+std::vector<double> increments(const std::vector<double>& x) {
+  std::vector<double> d;
+  if (x.size() < 2)
+    return d;
+  d.reserve(x.size() - 1);
+  for (std::size_t i = 1; i < x.size(); ++i)
+    d.push_back(x[i] - x[i - 1]);
+  return d;
+}
+
+// ---- StepCorrelation ------------------------------------------------------------------------
+
+void StepCorrelation::add(const std::vector<double>& v) {
+  for (double x : v) {
+    if (!std::isfinite(x)) {
+      finite_ = false;
+      return;
+    }
+  }
+  if (!prev_.empty() && prev_.size() == v.size()) {
+    double cross = 0.0, norm = 0.0;
+    std::size_t reversed = 0;
+    const std::size_t groups = group_ > 0 ? v.size() / group_ : 0;
+    for (std::size_t g = 0; g < groups; ++g) {
+      double d = 0.0;
+      for (std::size_t c = 0; c < group_; ++c) {
+        const std::size_t k = g * group_ + c;
+        d += v[k] * prev_[k];
+        norm += 0.5 * (v[k] * v[k] + prev_[k] * prev_[k]);
+      }
+      cross += d;
+      if (d < 0.0)
+        ++reversed;
+    }
+    cross_ += cross;
+    norm_ += norm;
+    reversed_ += groups > 0 ? double(reversed) / double(groups) : 0.0;
+    ++pairs_;
+  }
+  prev_ = v;
+}
+
+double StepCorrelation::correlation() const {
+  return norm_ > 0.0 ? cross_ / norm_ : 1.0;
+}
+
+double StepCorrelation::alternating_share() const {
+  return 0.5 * (1.0 - correlation());
+}
+
+double StepCorrelation::reversed_fraction() const {
+  return pairs_ > 0 ? reversed_ / double(pairs_) : 0.0;
+}
+
+// ---- Energy balance -------------------------------------------------------------------------
+
+EnergyBalance energy_balance(const std::vector<Sample>& samples, double t_eq, double gdot,
+                             std::optional<double> imposed_pressure, std::size_t blocks) {
+  EnergyBalance eb;
+  eb.ratio = eb.error = eb.residual = eb.drift = eb.raw_ratio = kNaN;
+  // The window: samples after the last one at or before t_eq, which is the starting point.
+  std::size_t start = 0;
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    if (samples[k].time <= t_eq * (1.0 + 1e-12) + 1e-12)
+      start = k;
+  }
+  const std::size_t count = samples.size() > start ? samples.size() - start - 1 : 0;
+  if (blocks < 2 || count < blocks)
+    return eb;
+  const double p = imposed_pressure.value_or(0.0);
+  auto work = [&](const Sample& s) { return s.sigma_xy * gdot * s.volume; };
+  auto loss = [&](const Sample& s) { return s.dissipation + s.piston_dissipation; };
+  auto enthalpy = [&](const Sample& s) { return s.energy + p * s.volume; };
+  // Blocks of equal length over the newest samples, as block_average does.
+  const std::size_t len = count / blocks;
+  const std::size_t first = start + (count - len * blocks);  // sample preceding block 0
+  std::vector<double> ratios(blocks);
+  double w_all = 0.0, l_all = 0.0;
+  for (std::size_t b = 0; b < blocks; ++b) {
+    const std::size_t a = first + b * len;  // start point of the block
+    double w = 0.0, l = 0.0;
+    for (std::size_t k = a + 1; k <= a + len; ++k) {
+      w += work(samples[k]);
+      l += loss(samples[k]);
+    }
+    w /= double(len);
+    l /= double(len);
+    w_all += w;
+    l_all += l;
+    const double span = samples[a + len].time - samples[a].time;
+    const double drift =
+        span > 0.0 ? (enthalpy(samples[a + len]) - enthalpy(samples[a])) / span : 0.0;
+    ratios[b] = w / (l + drift);
+  }
+  w_all /= double(blocks);
+  l_all /= double(blocks);
+  const Sample& s0 = samples[first];
+  const Sample& s1 = samples.back();
+  const double span = s1.time - s0.time;
+  eb.drift = span > 0.0 ? (enthalpy(s1) - enthalpy(s0)) / span : 0.0;
+  const double denom = l_all + eb.drift;
+  eb.raw_ratio = l_all > 0.0 ? w_all / l_all : kNaN;
+  if (!(denom > 0.0) || !std::isfinite(w_all))
+    return eb;
+  eb.ratio = w_all / denom;
+  double m = 0.0, v = 0.0;
+  for (double r : ratios)
+    m += r;
+  m /= double(blocks);
+  for (double r : ratios)
+    v += (r - m) * (r - m);
+  eb.error = std::sqrt(v / double(blocks - 1) / double(blocks));
+  eb.residual = std::abs(eb.ratio - 1.0);
+  eb.valid = std::isfinite(eb.ratio) && std::isfinite(eb.error);
+  return eb;
+}
+
+// ---- Paired comparison ---------------------------------------------------------------------
+
+// Error of the mean difference a - b over the averaging window, from block averages of the
+// paired difference series (same sample times: the runs share start state, seed and sampling
+// grid, so their fluctuations are correlated as long as the trajectories stay close).
+// NaN if the sample times do not match.
+double paired_error(const Series& a, const Series& b, double t_eq, double Sample::*field,
+                    std::size_t blocks) {
+  std::vector<double> d;
+  std::size_t ia = 0, ib = 0;
+  const double tol = 1e-6;
+  while (ia < a.samples.size() && a.samples[ia].time <= t_eq + tol)
+    ++ia;
+  while (ib < b.samples.size() && b.samples[ib].time <= t_eq + tol)
+    ++ib;
+  if (a.samples.size() - ia != b.samples.size() - ib)
+    return kNaN;
+  for (; ia < a.samples.size(); ++ia, ++ib) {
+    if (std::abs(a.samples[ia].time - b.samples[ib].time) > tol * std::max(1.0, a.samples[ia].time))
+      return kNaN;
+    d.push_back(a.samples[ia].*field - b.samples[ib].*field);
+  }
+  if (d.size() < blocks)
+    return kNaN;
+  return block_average(d, blocks).error;
+}
+
+// ---- Lanes ----------------------------------------------------------------------------------
+
+void LaneAccumulator::add(const State& state) {
+  const std::size_t n = state.size();
+  if (n == 0)
+    return;
+  if (s_sum_.empty()) {
+    if (m_max_ <= 0) {
+      const double l = std::min(state.box.ly, state.box.lz);
+      m_max_ = std::clamp(static_cast<int>(std::ceil(l / 0.7)), 1, 32);
+    }
+    n_ = n;
+    s_sum_.assign(std::size_t(2 * m_max_ + 1) * std::size_t(m_max_ + 1), 0.0);
+  }
+  const int m = m_max_;
+  const std::size_t ny = std::size_t(2 * m + 1);
+  std::vector<std::complex<double>> rho(s_sum_.size(), {0.0, 0.0});
+  std::vector<std::complex<double>> py(ny);
+  const double two_pi = 2.0 * std::numbers::pi;
+  const double* sy = state.y();
+  const double* sz = state.z();
+  for (std::size_t j = 0; j < n; ++j) {
+    const std::complex<double> ey = std::polar(1.0, two_pi * sy[j]);
+    const std::complex<double> ez = std::polar(1.0, two_pi * sz[j]);
+    // py[m + k] = ey^k for k in [-m, m]
+    py[std::size_t(m)] = 1.0;
+    for (int k = 1; k <= m; ++k) {
+      py[std::size_t(m + k)] = py[std::size_t(m + k - 1)] * ey;
+      py[std::size_t(m - k)] = std::conj(py[std::size_t(m + k)]);
+    }
+    std::complex<double> pz = 1.0;
+    for (int mz = 0; mz <= m; ++mz) {
+      std::complex<double>* row = rho.data() + std::size_t(mz) * ny;
+      for (std::size_t k = 0; k < ny; ++k)
+        row[k] += py[k] * pz;
+      pz *= ez;
+    }
+  }
+  for (std::size_t k = 0; k < rho.size(); ++k)
+    s_sum_[k] += std::norm(rho[k]) / double(n);
+  ++snapshots_;
+}
+
+std::size_t LaneAccumulator::peak_index() const {
+  const int m = m_max_;
+  const std::size_t ny = std::size_t(2 * m + 1);
+  std::size_t best = 0;
+  double best_v = -1.0;
+  for (int mz = 0; mz <= m; ++mz) {
+    for (int my = -m; my <= m; ++my) {
+      if (mz == 0 && my <= 0)
+        continue;  // k = 0 and the mirrored half line
+      const std::size_t k = std::size_t(mz) * ny + std::size_t(my + m);
+      if (s_sum_[k] > best_v) {
+        best_v = s_sum_[k];
+        best = k;
+      }
+    }
+  }
+  return best;
+}
+
+double LaneAccumulator::order() const {
+  if (snapshots_ == 0 || n_ == 0)
+    return 0.0;
+  return s_sum_[peak_index()] / double(snapshots_) / double(n_);
+}
+
+int LaneAccumulator::peak_my() const {
+  if (snapshots_ == 0)
+    return 0;
+  return static_cast<int>(peak_index() % std::size_t(2 * m_max_ + 1)) - m_max_;
+}
+
+int LaneAccumulator::peak_mz() const {
+  if (snapshots_ == 0)
+    return 0;
+  return static_cast<int>(peak_index() / std::size_t(2 * m_max_ + 1));
+}
+
+void LaneAccumulator::add_velocity(const State& state, const std::vector<double>& force) {
+  const std::size_t n = state.size();
+  if (force.size() < 3 * n || n_bins_ < 1)
+    return;
+  if (v_sum_.empty()) {
+    v_sum_.assign(std::size_t(n_bins_), 0.0);
+    v_count_.assign(std::size_t(n_bins_), 0.0);
+  }
+  const double* sy = state.y();
+  for (std::size_t j = 0; j < n; ++j) {
+    const double s = sy[j] - std::floor(sy[j]);
+    const auto b = std::min(std::size_t(n_bins_) - 1, static_cast<std::size_t>(s * n_bins_));
+    v_sum_[b] += force[j] / kXiS;
+    v_count_[b] += 1.0;
+  }
+  ly_sum_ += state.box.ly;
+  ++v_snapshots_;
+}
+
+std::vector<double> LaneAccumulator::velocity_profile() const {
+  std::vector<double> p(v_sum_.size(), kNaN);
+  for (std::size_t b = 0; b < v_sum_.size(); ++b)
+    if (v_count_[b] > 0.0)
+      p[b] = v_sum_[b] / v_count_[b];
+  return p;
+}
+
+double LaneAccumulator::velocity_amplitude(double gdot) const {
+  if (v_snapshots_ == 0 || !(gdot > 0.0))
+    return kNaN;
+  const std::vector<double> p = velocity_profile();
+  double s2 = 0.0;
+  std::size_t k = 0;
+  for (double v : p) {
+    if (std::isfinite(v)) {
+      s2 += v * v;
+      ++k;
+    }
+  }
+  if (k == 0)
+    return kNaN;
+  const double ly = ly_sum_ / double(v_snapshots_);
+  return std::sqrt(s2 / double(k)) / (gdot * ly);
+}
+
+// ---- Window ---------------------------------------------------------------------------------
+
+WindowResult diagnostic_window(const RunSpec& spec, const State& start,
+                               const WindowOptions& options) {
+  WindowResult w;
+  ModelOptions mo;
+  mo.alpha = spec.alpha;
+  mo.skin = spec.skin;
+  mo.threads = 1;
+  Model model(start, mo);
+  std::unique_ptr<Integrator> integ = spec.make_integrator();
+  const Ensemble& ens = *spec.ensemble;
+  w.adaptive = !(integ->nominal_dt() > 0.0);
+  w.step = w.adaptive ? spec.sample_every / 16.0 : integ->nominal_dt();
+  StepCorrelation corr(3);
+  LaneAccumulator lanes;
+  lanes.add(start);
+  const int snap_every = std::max(1, options.steps / std::max(1, options.lane_snapshots));
+  const std::size_t n = start.size();
+  std::vector<double> f(3 * n);
+  try {
+    for (int k = 0; k <= options.steps; ++k) {
+      const Evaluation& ev = model.evaluate();
+      const State& s = model.state();
+      for (std::size_t i = 0; i < n; ++i) {
+        const auto id = static_cast<std::size_t>(s.id[i]);
+        for (std::size_t c = 0; c < 3; ++c)
+          f[3 * id + c] = ev.forces.force[c * n + i];
+      }
+      corr.add(f);
+      w.sigma_xy.push_back(ev.sigma_xy);
+      w.pressure.push_back(ev.pressure);
+      w.dissipation.push_back(ev.dissipation);
+      if (k > 0 && k % snap_every == 0) {
+        lanes.add(s);
+        lanes.add_velocity(s, ev.forces.force);
+      }
+      if (k == options.steps)
+        break;
+      integ->advance(model, ens, s.time + w.step);
+      ++w.steps_done;
+    }
+  } catch (const IntegrationError& e) {
+    w.status = std::string("failed at step ") + std::to_string(w.steps_done) + ": " + e.what();
+  }
+  w.finite = corr.finite();
+  for (const auto* series : {&w.sigma_xy, &w.pressure, &w.dissipation})
+    for (double v : *series)
+      if (!std::isfinite(v))
+        w.finite = false;
+  w.force_correlation = corr.correlation();
+  w.alternating_share = corr.alternating_share();
+  w.reversed_fraction = corr.reversed_fraction();
+  w.dsigma_lag1 = lag1_autocorrelation(increments(w.sigma_xy));
+  w.dpressure_lag1 = lag1_autocorrelation(increments(w.pressure));
+  double d = 0.0;
+  for (double v : w.dissipation)
+    d += v;
+  w.mean_dissipation = w.dissipation.empty() ? kNaN : d / double(w.dissipation.size());
+  w.lane_order = lanes.order();
+  w.lane_my = lanes.peak_my();
+  w.lane_mz = lanes.peak_mz();
+  w.velocity_amplitude = lanes.velocity_amplitude(spec.shear_rate);
+  return w;
+}
+
+// ---- Classification -------------------------------------------------------------------------
+
+std::string verdict_name(Verdict v) {
+  switch (v) {
+    case Verdict::kStable:
+      return "stable";
+    case Verdict::kOscillating:
+      return "oscillating";
+    case Verdict::kDiverged:
+      return "diverged";
+    case Verdict::kNotAvailable:
+      return "not available";
+    case Verdict::kIncomplete:
+      return "incomplete";
+  }
+  return "?";
+}
+
+namespace {
+std::string g3(double v) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+}  // namespace
+
+Classification classify(const ReplicaResult& result, const EnergyBalance& balance,
+                        const WindowResult* window, const Thresholds& th) {
+  Classification c;
+  if (result.status.rfind("interrupted", 0) == 0) {
+    c.verdict = Verdict::kIncomplete;
+    c.reason = result.status + " (wall-time budget of the study)";
+    return c;
+  }
+  if (result.status != "complete") {
+    c.verdict = Verdict::kDiverged;
+    c.reason = result.status;
+    return c;
+  }
+  for (const Sample& s : result.series.samples) {
+    for (double v : {s.volume, s.pressure, s.sigma_xy, s.energy, s.dissipation}) {
+      if (!std::isfinite(v)) {
+        c.verdict = Verdict::kDiverged;
+        c.reason = "non-finite sample at t = " + g3(s.time);
+        return c;
+      }
+    }
+  }
+  if (window) {
+    if (window->status != "complete" || !window->finite) {
+      c.verdict = Verdict::kDiverged;
+      c.reason = "diagnostic window " +
+                 (window->status != "complete" ? window->status : std::string("non-finite"));
+      return c;
+    }
+    c.laned = window->lane_order >= th.lane_order_min;
+  }
+  std::vector<std::string> why;
+  if (window && window->steps_done >= 2 && window->force_correlation < th.force_correlation_min) {
+    why.push_back("period-2: force step correlation " + g3(window->force_correlation));
+  }
+  // Only a deficit (dissipation inflated beyond the work done) is the oscillation signature;
+  // an excess is an accuracy error, reported by the studies, not an instability.
+  // An adaptive integrator has no fixed step to alternate with: its energy-balance error is
+  // an accuracy error (reported by the studies), not the oscillation signature.
+  const bool adaptive = window && window->adaptive;
+  // An undefined balance (no dissipation: a contact-free gas) is no evidence of oscillation.
+  if (balance.valid && !adaptive) {
+    const double allowed = std::max(th.balance_tolerance, th.balance_sigmas * balance.error);
+    if (1.0 - balance.ratio > allowed)
+      why.push_back("energy balance " + g3(balance.ratio) + " ± " + g3(balance.error));
+  }
+  if (!why.empty()) {
+    c.verdict = Verdict::kOscillating;
+    for (std::size_t k = 0; k < why.size(); ++k)
+      c.reason += (k ? "; " : "") + why[k];
+  } else {
+    c.verdict = Verdict::kStable;
+    c.reason = (balance.valid ? "energy balance " + g3(balance.ratio) + " ± " + g3(balance.error)
+                              : std::string("energy balance undefined (no dissipation)")) +
+               (window ? ", force step correlation " + g3(window->force_correlation) : "");
+  }
+  return c;
+}
+
+// ---- Diagnosed runs -------------------------------------------------------------------------
+
+double DiagnosedRun::value(const std::string& key) const {
+  const auto& v = result.summary.values;
+  const auto it = v.find(key);
+  return it == v.end() ? kNaN : it->second;
+}
+
+std::string DiagnosedRun::verdict_text() const {
+  switch (cls.verdict) {
+    case Verdict::kStable:
+      return cls.laned ? "stable, lanes" : "stable";
+    case Verdict::kOscillating:
+      return std::string("oscillating (") + cls.reason + ")" + (cls.laned ? ", lanes" : "");
+    case Verdict::kDiverged: {
+      std::string r = cls.reason;
+      if (r.rfind("failed at ", 0) == 0)
+        r = r.substr(10);
+      return "diverged (" + r + ")";
+    }
+    case Verdict::kNotAvailable:
+      return "not available (" + unavailable + ")";
+    case Verdict::kIncomplete:
+      return "incomplete (" + cls.reason + ")";
+  }
+  return "?";
+}
+
+double thread_cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
+double commensurate(double target, double dt) {
+  if (!(dt > 0.0))
+    return target;
+  return dt * std::max(1.0, std::round(target / dt));
+}
+
+DiagnosedRun execute(const RunRequest& request, const Thresholds& thresholds) {
+  DiagnosedRun d;
+  d.label = request.label;
+  RunSpec spec;
+  try {
+    Scene scene = Scene::parse(request.scene, request.label);
+    for (const auto& o : request.overrides)
+      scene.set(o);
+    scene.set("run.threads=1");
+    spec = parse_run_spec(scene);
+  } catch (const ConfigError& e) {
+    d.unavailable = e.what();
+    d.cls.verdict = Verdict::kNotAvailable;
+    d.cls.reason = e.what();
+    d.result.status = "not run";
+    return d;
+  }
+  if (request.init)
+    spec.init_state = *request.init;
+  d.scene_text = spec.scene_text;
+  d.n = spec.init_state ? static_cast<std::int64_t>(spec.init_state->size()) : spec.n;
+  d.gdot = spec.shear_rate;
+  d.dt = spec.make_integrator()->nominal_dt();
+  d.t_eq = spec.t_eq;
+  d.blocks = spec.blocks;
+  RunOptions ro;
+  ro.quiet = true;
+  ro.label = request.label;
+  // Budget: a watchdog thread raises the run's stop flag after budget_seconds of wall time.
+  std::atomic<bool> stop{false};
+  std::mutex m;
+  std::condition_variable cv;
+  bool finished = false;
+  std::thread watchdog;
+  if (request.budget_seconds > 0.0) {
+    ro.stop = &stop;
+    watchdog = std::thread([&] {
+      std::unique_lock<std::mutex> lock(m);
+      if (!cv.wait_for(lock, std::chrono::duration<double>(request.budget_seconds),
+                       [&] { return finished; }))
+        stop.store(true);
+    });
+  }
+  auto stop_watchdog = [&] {
+    if (watchdog.joinable()) {
+      {
+        std::lock_guard<std::mutex> lock(m);
+        finished = true;
+      }
+      cv.notify_all();
+      watchdog.join();
+    }
+  };
+  const double cpu0 = thread_cpu_seconds();
+  try {
+    d.result = run_replica(spec, request.seed, ro);
+    stop_watchdog();
+  } catch (const std::exception& e) {
+    stop_watchdog();
+    // The engine refused to continue (e.g. a ConfigError "cell too small" after the box
+    // collapsed): the run is lost, the study reports the message.
+    d.result = ReplicaResult{};
+    d.result.status = std::string("aborted: ") + e.what();
+  }
+  d.cpu_seconds = thread_cpu_seconds() - cpu0;
+  for (const auto& [k, v] : d.result.integrator_stats) {
+    if (k == "force_evaluations")
+      d.particle_steps = v * double(d.n);
+  }
+  const bool ok = d.result.status == "complete";
+  if (ok) {
+    d.balance =
+        energy_balance(d.result.series.samples, spec.t_eq, spec.shear_rate,
+                       spec.ensemble->imposed_pressure(), static_cast<std::size_t>(spec.blocks));
+  }
+  if (ok && request.window) {
+    try {
+      d.window = diagnostic_window(spec, d.result.final_state, request.window_options);
+    } catch (const std::exception& e) {
+      d.window.status = std::string("aborted: ") + e.what();
+    }
+  }
+  d.cls = classify(d.result, d.balance, ok && request.window ? &d.window : nullptr, thresholds);
+  return d;
+}
+
+std::vector<DiagnosedRun> execute_all(const std::vector<RunRequest>& requests, int workers,
+                                      bool quiet, const Thresholds& thresholds) {
+  std::vector<DiagnosedRun> out(requests.size());
+  if (requests.empty())
+    return out;
+  unsigned w = workers > 0 ? unsigned(workers) : std::max(1u, std::thread::hardware_concurrency());
+  w = std::min<unsigned>(w, unsigned(requests.size()));
+  std::atomic<std::size_t> next{0};
+  std::atomic<std::size_t> done{0};
+  std::mutex print;
+  auto worker = [&]() {
+    for (std::size_t k = next++; k < requests.size(); k = next++) {
+      out[k] = execute(requests[k], thresholds);
+      const std::size_t finished = ++done;
+      if (!quiet) {
+        std::lock_guard<std::mutex> lock(print);
+        std::printf("  [%zu/%zu] %-40s %7.1f s  %s\n", finished, requests.size(),
+                    out[k].label.c_str(), out[k].cpu_seconds, out[k].verdict_text().c_str());
+        std::fflush(stdout);
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (unsigned t = 1; t < w; ++t)
+    pool.emplace_back(worker);
+  worker();
+  for (auto& t : pool)
+    t.join();
+  return out;
+}
+
+// ---- Output ---------------------------------------------------------------------------------
+
+void write_diagnosed(H5Writer& out, const std::string& group, const DiagnosedRun& r,
+                     bool with_series) {
+  out.group(group);
+  out.attr(group, "label", r.label);
+  out.attr(group, "verdict", verdict_name(r.cls.verdict));
+  out.attr(group, "verdict_text", r.verdict_text());
+  out.attr(group, "reason", r.cls.reason);
+  out.attr(group, "laned", static_cast<std::int64_t>(r.cls.laned));
+  out.attr(group, "status", r.result.status);
+  out.attr(group, "scene", r.scene_text);
+  out.attr(group, "dt", r.dt);
+  out.attr(group, "N", r.n);
+  out.attr(group, "gdot", r.gdot);
+  out.attr(group, "cpu_seconds", r.cpu_seconds);
+  out.attr(group, "wall_seconds", r.result.wall_seconds);
+  out.attr(group, "particle_steps", r.particle_steps);
+  if (r.cls.verdict == Verdict::kNotAvailable)
+    return;
+  for (const auto& [k, v] : r.result.integrator_stats)
+    out.attr(group, "integrator_" + k, v);
+  for (const auto& [k, v] : r.result.summary.values)
+    out.attr(group, "summary_" + k, v);
+  out.attr(group, "balance_ratio", r.balance.ratio);
+  out.attr(group, "balance_error", r.balance.error);
+  out.attr(group, "balance_residual", r.balance.residual);
+  out.attr(group, "balance_drift", r.balance.drift);
+  out.attr(group, "balance_raw_ratio", r.balance.raw_ratio);
+  const WindowResult& w = r.window;
+  out.attr(group, "window_status", w.status);
+  out.attr(group, "window_step", w.step);
+  out.attr(group, "window_steps", static_cast<std::int64_t>(w.steps_done));
+  out.attr(group, "force_correlation", w.force_correlation);
+  out.attr(group, "alternating_share", w.alternating_share);
+  out.attr(group, "reversed_fraction", w.reversed_fraction);
+  out.attr(group, "dsigma_lag1", w.dsigma_lag1);
+  out.attr(group, "dpressure_lag1", w.dpressure_lag1);
+  out.attr(group, "window_dissipation", w.mean_dissipation);
+  out.attr(group, "lane_order", w.lane_order);
+  out.attr(group, "lane_my", static_cast<std::int64_t>(w.lane_my));
+  out.attr(group, "lane_mz", static_cast<std::int64_t>(w.lane_mz));
+  out.attr(group, "velocity_amplitude", w.velocity_amplitude);
+  if (!with_series)
+    return;
+  const Series& s = r.result.series;
+  if (!s.samples.empty()) {
+    const std::string ts = group + "/timeseries";
+    out.dataset(ts + "/time", s.column(&Sample::time));
+    out.dataset(ts + "/sigma_xy", s.column(&Sample::sigma_xy));
+    out.dataset(ts + "/pressure", s.column(&Sample::pressure));
+    out.dataset(ts + "/phi", s.column(&Sample::phi));
+    out.dataset(ts + "/volume", s.column(&Sample::volume));
+    out.dataset(ts + "/energy", s.column(&Sample::energy));
+    out.dataset(ts + "/dissipation", s.column(&Sample::dissipation));
+    out.dataset(ts + "/piston_dissipation", s.column(&Sample::piston_dissipation));
+  }
+  if (!w.sigma_xy.empty()) {
+    const std::string ws = group + "/window";
+    out.dataset(ws + "/sigma_xy", w.sigma_xy);
+    out.dataset(ws + "/pressure", w.pressure);
+    out.dataset(ws + "/dissipation", w.dissipation);
+  }
+}
+
+// ---- Scenes ---------------------------------------------------------------------------------
+
+std::string short_num(double v) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
+
+std::string StatePoint::describe() const {
+  std::string s = "N = " + std::to_string(n) + ", alpha = " + short_num(alpha) + ", ";
+  s += constant_pressure ? "P = " + short_num(pressure) : "phi = " + short_num(phi);
+  if (constant_pressure && xi_v != 1e-4)
+    s += ", xi_V = " + short_num(xi_v);
+  s += ", gdot = " + short_num(gdot);
+  return s;
+}
+
+IntegratorSetting euler_setting(double dt) {
+  IntegratorSetting s;
+  s.family = "euler";
+  s.label = "euler dt=" + short_num(dt);
+  s.dt = dt;
+  s.keys = {{"kind", "\"euler\""}, {"dt", short_num(dt)}};
+  return s;
+}
+
+IntegratorSetting respa_setting(double dt, int n_inner, const std::string& inner,
+                                const std::string& scheme) {
+  IntegratorSetting s;
+  s.family = "respa";
+  s.label = "respa " + inner + "x" + std::to_string(n_inner) +
+            (scheme == "euler" ? "" : " " + scheme) + " dt=" + short_num(dt);
+  s.dt = dt;
+  s.keys = {{"kind", "\"respa\""},
+            {"dt", short_num(dt)},
+            {"n_inner", std::to_string(n_inner)},
+            {"inner", "\"" + inner + "\""},
+            {"inner_scheme", "\"" + scheme + "\""}};
+  return s;
+}
+
+IntegratorSetting cvode_setting(double rtol, double atol, long max_steps) {
+  IntegratorSetting s;
+  s.family = "cvode";
+  s.label = "cvode rtol=" + short_num(rtol);
+  s.tolerance = rtol;
+  s.keys = {{"kind", "\"cvode\""}, {"rtol", short_num(rtol)}};
+  if (atol > 0.0)
+    s.keys.emplace_back("atol", short_num(atol));
+  if (max_steps > 0)
+    s.keys.emplace_back("max_steps", std::to_string(max_steps));
+  return s;
+}
+
+std::string scene_toml(const StatePoint& p, const IntegratorSetting& setting, double t_eq,
+                       double t_av, double sample_every, int blocks) {
+  const double se = commensurate(sample_every, setting.dt);
+  const double av = se * std::max(double(blocks), std::round(t_av / se));
+  const double eq = se * std::round(t_eq / se);
+  std::string t = "[system]\nN = " + std::to_string(p.n) + "\nphi = " + short_num(p.phi) +
+                  "\nalpha = " + short_num(p.alpha) + "\nseed = " + std::to_string(p.seed) +
+                  "\n\n[ensemble]\n";
+  if (p.constant_pressure) {
+    t += "kind = \"constant_pressure\"\npressure = " + short_num(p.pressure) +
+         "\nxi_V = " + short_num(p.xi_v) + "\n";
+  } else {
+    t += "kind = \"constant_volume\"\n";
+  }
+  t += "\n[shear]\nrate = " + short_num(p.gdot) + "\n\n[integrator]\n";
+  for (const auto& [k, v] : setting.keys)
+    t += k + " = " + v + "\n";
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "\n[run]\nt_eq = %.17g\nt_av = %.17g\nsample_every = %.17g\nblocks = %d\n", eq, av,
+                se, blocks);
+  return t + buf;
+}
+
+}  // namespace jamflow::studies

@@ -1,0 +1,266 @@
+// Shared stability and accuracy diagnostics for the methodology studies (timestep, stability,
+// softness): the energy-balance residual (SPEC §3-4), a step-to-step (period-2) oscillation
+// detector, a lane order parameter (the seed's N = 100 lanes, sec. "Model and numerical
+// methods"), and a diagnosed run that classifies a run as stable / oscillating / diverged.
+// Criteria and thresholds are documented in studies/stability/README.md.
+#pragma once
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "apps/run.hpp"
+#include "studies/study.hpp"
+
+namespace jamflow {
+class H5Writer;
+}
+
+namespace jamflow::studies {
+
+// ---- Scalar series ------------------------------------------------------------------------
+
+// Lag-1 autocorrelation coefficient of a series (0 for fewer than 3 points or no variance).
+double lag1_autocorrelation(const std::vector<double>& x);
+
+// x[k+1] - x[k].
+std::vector<double> increments(const std::vector<double>& x);
+
+// ---- Step-to-step oscillation ---------------------------------------------------------------
+
+// Correlation of consecutive force vectors F_n (one per integrator step, particles in id
+// order): c = sum_n F_n . F_{n+1} / sum_n (|F_n|^2 + |F_{n+1}|^2) / 2. Smooth dynamics gives
+// c -> 1; a period-2 mode F_n = A (-1)^n gives -1. Writing F = F_smooth + (-1)^n F_alt,
+// the alternating share of the force power is (1 - c) / 2. Also counts the fraction of
+// particles (groups of `group` components) whose force reverses from one step to the next.
+class StepCorrelation {
+ public:
+  explicit StepCorrelation(std::size_t group = 3) : group_(group) {}
+  void add(const std::vector<double>& v);
+  std::size_t pairs() const { return pairs_; }
+  double correlation() const;        // c; 1 with fewer than 2 vectors
+  double alternating_share() const;  // (1 - c) / 2
+  double reversed_fraction() const;  // mean fraction of groups with F_n . F_{n+1} < 0
+  bool finite() const { return finite_; }
+
+ private:
+  std::size_t group_;
+  std::vector<double> prev_;
+  double cross_ = 0.0, norm_ = 0.0, reversed_ = 0.0;
+  std::size_t pairs_ = 0;
+  bool finite_ = true;
+};
+
+// ---- Energy balance -------------------------------------------------------------------------
+
+// Steady-state energy balance over the averaging window (samples with time > t_eq), SPEC §3:
+//   <sigma_xy gdot V> = <D> + xi_V <(dV/dt)^2> + (Delta U + P Delta V) / T_window,
+// the last term (zero in a true steady state) removing the drift of the enthalpy U + P V over
+// a window that is not yet stationary. ratio = <W> / (<D + D_piston> + drift), its error from
+// the block scatter of the per-block ratios, residual = |ratio - 1|.
+struct EnergyBalance {
+  double ratio = 0.0;
+  double error = 0.0;
+  double residual = 0.0;
+  double drift = 0.0;      // (Delta U + P Delta V) / T, in units of power
+  double raw_ratio = 0.0;  // <W> / <D + D_piston> without the drift term (the engine's value)
+  bool valid = false;
+};
+EnergyBalance energy_balance(const std::vector<Sample>& samples, double t_eq, double gdot,
+                             std::optional<double> imposed_pressure, std::size_t blocks);
+
+// Error of the mean difference a - b over the averaging window (samples with time > t_eq),
+// from block averages of the paired difference series. Runs that share the start state, the
+// seed and the sampling grid have correlated fluctuations as long as their trajectories stay
+// close, so this floor can be far below the combined block errors. NaN if the sample times
+// differ or there are fewer than `blocks` samples.
+double paired_error(const Series& a, const Series& b, double t_eq, double Sample::*field,
+                    std::size_t blocks);
+
+// ---- Lanes ----------------------------------------------------------------------------------
+
+// Lane order parameter: lanes (strings along the flow, stacked in the gradient-vorticity
+// plane) show as Bragg-like peaks of the density projected on that plane. With scaled
+// coordinates s, S(m) = |sum_j exp(2 pi i (m_y s_y + m_z s_z))|^2 / N for integer
+// (m_y, m_z) != 0, |m| <= m_max (k_x = 0 is compatible with the Lees-Edwards cell).
+// order = max_m <S(m)>_snapshots / N: O(1/N) x a few for a homogeneous liquid, O(1) for lanes.
+// The non-affine velocity profile v_x(y) = <F_x / xi_s> in n_bins slabs across y is reported
+// as amplitude = rms over slabs of v_x divided by gdot L_y (0 for homogeneous flow).
+class LaneAccumulator {
+ public:
+  // m_max: largest |m| component (0: chosen from the box so that spacings down to 0.7 a
+  // are resolved); n_bins: slabs for the velocity profile.
+  explicit LaneAccumulator(int m_max = 0, int n_bins = 8) : m_max_(m_max), n_bins_(n_bins) {}
+  void add(const State& state);                                             // density snapshot
+  void add_velocity(const State& state, const std::vector<double>& force);  // SoA forces
+  std::size_t snapshots() const { return snapshots_; }
+  double order() const;  // max_m <S(m)> / N, 0 without snapshots
+  int peak_my() const;
+  int peak_mz() const;
+  // rms over slabs of <F_x / xi_s>(y), divided by gdot * L_y (NaN if gdot == 0 or no data).
+  double velocity_amplitude(double gdot) const;
+  std::vector<double> velocity_profile() const;
+
+ private:
+  std::size_t peak_index() const;
+  int m_max_;
+  int n_bins_;
+  std::size_t n_ = 0;
+  std::size_t snapshots_ = 0;
+  std::vector<double> s_sum_;  // accumulated S(m), (2 m_max + 1) x (m_max + 1) half plane
+  std::vector<double> v_sum_;
+  std::vector<double> v_count_;
+  double ly_sum_ = 0.0;
+  std::size_t v_snapshots_ = 0;
+};
+
+// ---- Diagnostic window and classification --------------------------------------------------
+
+struct WindowOptions {
+  int steps = 256;          // integrator steps sampled one by one
+  int lane_snapshots = 16;  // density snapshots over the window (plus the run's final state)
+};
+
+struct WindowResult {
+  std::string status = "complete";  // or the IntegrationError message
+  double step = 0.0;                // sampling interval (the integrator's nominal dt)
+  bool adaptive = false;            // no nominal dt (CVODE): no step-to-step oscillation
+  std::size_t steps_done = 0;
+  double force_correlation = 1.0;  // StepCorrelation::correlation
+  double alternating_share = 0.0;
+  double reversed_fraction = 0.0;
+  double dsigma_lag1 = 0.0;  // lag-1 autocorrelation of sigma_xy increments
+  double dpressure_lag1 = 0.0;
+  double mean_dissipation = 0.0;
+  double lane_order = 0.0;
+  int lane_my = 0, lane_mz = 0;
+  double velocity_amplitude = 0.0;
+  std::vector<double> sigma_xy, pressure, dissipation;  // per step
+  bool finite = true;
+};
+
+// Continues `spec` from `start` for options.steps steps of the integrator's nominal dt (or
+// spec.sample_every / 16 for adaptive integrators), sampling every step.
+WindowResult diagnostic_window(const RunSpec& spec, const State& start,
+                               const WindowOptions& options);
+
+// kIncomplete: interrupted by the study's wall-time budget for one run (too slow to finish).
+enum class Verdict { kStable, kOscillating, kDiverged, kNotAvailable, kIncomplete };
+std::string verdict_name(Verdict v);
+
+struct Thresholds {
+  double force_correlation_min = 0.9;  // below: period-2 share of the force power > 5 %
+  double balance_tolerance = 0.05;     // |ratio - 1| above max(this, balance_sigmas * error)
+  double balance_sigmas = 3.0;
+  double lane_order_min = 0.3;  // laned at or above
+};
+
+struct Classification {
+  Verdict verdict = Verdict::kStable;
+  std::string reason;  // what triggered the verdict, or what was checked
+  bool laned = false;
+};
+
+// ---- A diagnosed run ------------------------------------------------------------------------
+
+struct RunRequest {
+  std::string label;
+  std::string scene;                   // TOML text
+  std::vector<std::string> overrides;  // "section.key=value"
+  std::uint64_t seed = 1;
+  std::optional<State> init;  // start here instead of a random state
+  bool window = true;         // run the diagnostic window after the run
+  WindowOptions window_options;
+  double budget_seconds = 0.0;  // wall-time limit of the main run (0: none)
+};
+
+struct DiagnosedRun {
+  std::string label;
+  std::string scene_text;  // canonical scene (empty if the scene was rejected)
+  double dt = 0.0;         // nominal dt (0: adaptive or unavailable)
+  double t_eq = 0.0;       // the run's [run] t_eq and blocks (the averaging window)
+  std::int64_t blocks = 20;
+  std::int64_t n = 0;
+  double gdot = 0.0;
+  ReplicaResult result;
+  EnergyBalance balance;
+  WindowResult window;
+  Classification cls;
+  double cpu_seconds = 0.0;     // thread CPU time of the main run (1 OpenMP thread)
+  double particle_steps = 0.0;  // N * force evaluations of the main run
+  std::string unavailable;      // ConfigError text when the scene was rejected
+
+  bool complete() const {
+    return cls.verdict != Verdict::kNotAvailable && result.status == "complete";
+  }
+  double value(const std::string& key) const;  // summary value, NaN if absent
+  // "stable", "oscillating (reason)", "diverged (t = ..., message)", "not available (...)",
+  // "incomplete (interrupted at t = ... by the budget)".
+  std::string verdict_text() const;
+};
+
+Classification classify(const ReplicaResult& result, const EnergyBalance& balance,
+                        const WindowResult* window, const Thresholds& thresholds);
+
+// Runs one request on the calling thread with 1 OpenMP thread. Never throws for a rejected
+// scene (ConfigError -> kNotAvailable) or a failed run (IntegrationError -> kDiverged).
+DiagnosedRun execute(const RunRequest& request, const Thresholds& thresholds = {});
+
+// Runs requests on `workers` threads (0: hardware concurrency), each run single-threaded.
+// Prints one line per finished run unless quiet.
+std::vector<DiagnosedRun> execute_all(const std::vector<RunRequest>& requests, int workers,
+                                      bool quiet, const Thresholds& thresholds = {});
+
+// The sampling interval closest to `target` that is a whole number (>= 1) of steps of `dt`,
+// so that no integrator step is shortened to land on a sample (dt <= 0: target itself).
+double commensurate(double target, double dt);
+
+// Writes a diagnosed run under `group`: attributes (verdict, reason, status, summary values,
+// energy balance, window metrics, cost) and the sampled series.
+void write_diagnosed(H5Writer& out, const std::string& group, const DiagnosedRun& run,
+                     bool with_series = true);
+
+// Thread CPU seconds of the calling thread.
+double thread_cpu_seconds();
+
+// ---- Scenes for the studies -----------------------------------------------------------------
+
+// One state point of the harmonic (or alpha_r) mixture under shear.
+struct StatePoint {
+  std::string name;
+  std::int64_t n = 1000;
+  double alpha = 2.0;
+  bool constant_pressure = true;
+  double pressure = 1e-3;  // imposed P (constant pressure)
+  double phi = 0.64;       // constant volume; the initial packing at constant pressure
+  double xi_v = 1e-4;
+  double gdot = 1e-4;
+  std::uint64_t seed = 1;
+  std::string describe() const;  // "N = 1000, alpha = 2, P = 1e-3, gdot = 1e-4"
+};
+
+// One integrator configuration: its [integrator] keys (TOML values) and a label.
+struct IntegratorSetting {
+  std::string family;      // euler | respa | cvode
+  std::string label;       // "euler dt=0.5", "respa particles x4 dt=1", "cvode rtol=1e-5"
+  double dt = 0.0;         // nominal step (0: adaptive)
+  double tolerance = 0.0;  // cvode rtol
+  std::vector<std::pair<std::string, std::string>> keys;
+};
+IntegratorSetting euler_setting(double dt);
+// RESPA (see integrators/respa.hpp): inner level "particles" | "piston", scheme euler | heun.
+IntegratorSetting respa_setting(double dt, int n_inner, const std::string& inner,
+                                const std::string& scheme);
+// CVODE with relative tolerance rtol and absolute tolerance atol (<= 0: CVODE's default);
+// max_steps > 0 caps CVODE's steps per advance (a budget, not physics).
+IntegratorSetting cvode_setting(double rtol, double atol, long max_steps = 0);
+
+// The scene for a state point, integrator and durations. sample_every is made commensurate
+// with the step, and t_eq, t_av whole multiples of it (t_av at least `blocks` samples).
+std::string scene_toml(const StatePoint& point, const IntegratorSetting& setting, double t_eq,
+                       double t_av, double sample_every, int blocks = 20);
+
+// Formats a number for labels and TOML ("0.05", "1e-05").
+std::string short_num(double v);
+
+}  // namespace jamflow::studies

@@ -1,0 +1,53 @@
+// Stability study (studies/stability): presets and cases, exposed for the tests.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "studies/diagnostics.hpp"
+#include "studies/study.hpp"
+
+namespace jamflow::studies {
+
+struct RespaSplitting {
+  std::string inner;  // "particles" | "piston"
+  int n_inner = 4;
+  std::string scheme;  // "euler" | "heun"
+};
+
+// Sizes, durations and scan lists of a preset (the physics and the analysis never change).
+struct StabilityPreset {
+  std::string name;
+  std::int64_t n = 200;                           // N of every case but the N = 100 ones
+  double strain_prep = 0.05, t_prep_min = 300.0;  // preparation from a random state
+  double strain_eq = 0.01, t_eq_min = 100.0;      // per run, after switching integrator
+  double strain_av = 0.1, t_av_min = 600.0;       // averaging window
+  std::vector<double> dts;                        // Euler (and the prep uses min(0.05, dts[0]))
+  std::vector<double> stiff_dts;                  // extra small steps for alpha_r < 2
+  std::vector<double> lane_dts;                   // Euler steps of the N = 100 cases
+  std::vector<RespaSplitting> respa;
+  std::vector<double> respa_dts;
+  std::vector<double> cvode_tols;
+  double lane_pressure = 1e-4, lane_gdot = 1e-4, lane_strain_av = 0.0;
+  double budget_seconds = 0.0;  // wall-time limit per run (0: none); over it: "incomplete"
+  long cvode_max_steps = 0;     // CVODE steps per sample interval (0: CVODE's default)
+};
+
+StabilityPreset stability_preset(const std::string& name);  // quick | standard | paper
+
+struct StabilityCase {
+  std::string name;
+  std::string why;
+  StatePoint point;
+  bool stiff = false;  // alpha_r < 2: add the small steps
+  bool lanes = false;  // N = 100 near jamming
+  double strain_av = 0.0;
+};
+
+std::vector<StabilityCase> stability_cases(const StabilityPreset& preset);
+
+int run_stability(const StudyOptions& options);
+// The study for a given preset, restricted to the cases named in `only` (all if empty).
+int run_stability_preset(const StabilityPreset& preset, const StudyOptions& options,
+                         const std::vector<std::string>& only = {});
+
+}  // namespace jamflow::studies

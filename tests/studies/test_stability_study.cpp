@@ -1,0 +1,52 @@
+// Stability study end to end on a tiny version of the quick preset: outputs exist, and an
+// obviously stable (Euler dt = 0.05) and an obviously unstable (dt = 1.5) run are classified
+// as such.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "lib/h5.hpp"
+#include "studies/stability/stability.hpp"
+
+using namespace jamflow;
+using namespace jamflow::studies;
+
+TEST(StabilityStudy, TinyQuickPreset) {
+  StabilityPreset p = stability_preset("quick");
+  p.dts = {0.05, 1.5};
+  p.respa.clear();
+  p.cvode_tols.clear();
+  p.budget_seconds = 0.0;  // no wall budget in tests (sanitizer builds are slow)
+  p.t_prep_min = 200.0;
+  p.strain_prep = 0.0;
+  p.t_eq_min = 50.0;
+  p.strain_eq = 0.0;
+  p.t_av_min = 300.0;
+  p.strain_av = 0.0;
+  const std::string dir = ::testing::TempDir() + "jamflow_stability_study";
+  std::filesystem::remove_all(dir);
+  StudyOptions o;
+  o.preset = "quick";
+  o.out_dir = dir;
+  o.quiet = true;
+  o.threads = 1;
+  ASSERT_EQ(run_stability_preset(p, o, {"alpha=2"}), 0);
+  ASSERT_TRUE(std::filesystem::exists(dir + "/report.md"));
+  ASSERT_TRUE(std::filesystem::exists(dir + "/stability.h5"));
+  if (std::filesystem::exists("/usr/bin/python3")) {
+    EXPECT_TRUE(std::filesystem::exists(dir + "/stability_map.png"));
+  }
+
+  H5Reader r(dir + "/stability.h5");
+  ASSERT_EQ(r.attr_string("/cases/c00", "name"), "alpha=2");
+  std::map<double, std::string> verdict;
+  for (const auto& run : r.children("/cases/c00/runs")) {
+    const std::string g = "/cases/c00/runs/" + run;
+    verdict[r.attr_double(g, "step")] = r.attr_string(g, "verdict");
+  }
+  ASSERT_EQ(verdict.size(), 2u);
+  EXPECT_EQ(verdict[0.05], "stable");
+  EXPECT_TRUE(verdict[1.5] == "oscillating" || verdict[1.5] == "diverged") << verdict[1.5];
+  EXPECT_DOUBLE_EQ(r.attr_double("/cases/c00", "largest_stable_dt"), 0.05);
+  EXPECT_DOUBLE_EQ(r.attr_double("/cases/c00", "first_unstable_dt"), 1.5);
+}

@@ -1,0 +1,62 @@
+// Timestep study end to end on a tiny version of the quick preset: outputs exist, the
+// reference is Euler at the smallest dt, dt = 0.05 is stable with a finite error, dt = 1.5 is
+// not stable and never counted as meeting a target.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "lib/h5.hpp"
+#include "studies/timestep/timestep.hpp"
+
+using namespace jamflow;
+using namespace jamflow::studies;
+
+TEST(TimestepStudy, TinyQuickPreset) {
+  TimestepPreset p = timestep_preset("quick");
+  p.points.resize(1);  // constant pressure P = 1e-3, gdot = 1e-3
+  p.points[0].n = 150;
+  p.euler_dts = {0.02, 0.05, 1.5};
+  p.respa.clear();
+  p.cvode_tols.clear();
+  p.budget_seconds = 0.0;  // no wall budget in tests (sanitizer builds are slow)
+  p.t_prep_min = 200.0;
+  p.strain_prep = 0.0;
+  p.t_eq_min = 48.0;
+  p.strain_eq = 0.0;
+  p.t_av_min = 480.0;
+  p.strain_av = 0.0;
+  const std::string dir = ::testing::TempDir() + "jamflow_timestep_study";
+  std::filesystem::remove_all(dir);
+  StudyOptions o;
+  o.preset = "quick";
+  o.out_dir = dir;
+  o.quiet = true;
+  o.threads = 1;
+  ASSERT_EQ(run_timestep_preset(p, o), 0);
+  ASSERT_TRUE(std::filesystem::exists(dir + "/report.md"));
+  ASSERT_TRUE(std::filesystem::exists(dir + "/timestep.h5"));
+  if (std::filesystem::exists("/usr/bin/python3")) {
+    EXPECT_TRUE(std::filesystem::exists(dir + "/timestep_wp_sigma_xy.png"));
+  }
+
+  H5Reader r(dir + "/timestep.h5");
+  EXPECT_EQ(r.attr_int("/points/p00", "reference"), 0);
+  const std::string g005 = "/points/p00/runs/r001", g15 = "/points/p00/runs/r002";
+  EXPECT_DOUBLE_EQ(r.attr_double(g005, "step"), 0.05);
+  EXPECT_EQ(r.attr_string(g005, "verdict"), "stable");
+  const double err = r.attr_double(g005, "err_sigma_xy");
+  const double floor = r.attr_double(g005, "floor_sigma_xy");
+  EXPECT_TRUE(std::isfinite(err));
+  EXPECT_TRUE(std::isfinite(floor));
+  EXPECT_LT(err, 0.05);  // first-order bias of Euler at dt = 0.05 against dt = 0.02
+  EXPECT_DOUBLE_EQ(r.attr_double(g15, "step"), 1.5);
+  const std::string v15 = r.attr_string(g15, "verdict");
+  EXPECT_TRUE(v15 == "oscillating" || v15 == "diverged") << v15;
+  EXPECT_DOUBLE_EQ(r.attr_double("/points/p00", "first_unstable_euler_dt"), 1.5);
+  // No target is met by the unstable run.
+  for (const auto& t : r.children("/targets")) {
+    const std::string text = r.attr_string("/targets/" + t, "p0");
+    EXPECT_EQ(text.find("dt=1.5"), std::string::npos) << text;
+  }
+}
