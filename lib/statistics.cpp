@@ -22,19 +22,25 @@ BlockAverage block_average(const std::vector<double>& x, std::size_t blocks) {
   const std::size_t offset = x.size() - len * blocks;
   BlockAverage out;
   out.blocks.resize(blocks);
+  // Sums of deviations from a reference sample: a constant series (phi at constant volume)
+  // then gives exactly equal block means and a zero error, not round-off scatter.
+  const double ref = x[offset];
+  std::vector<double> dev(blocks);
   for (std::size_t b = 0; b < blocks; ++b) {
     double s = 0.0;
     for (std::size_t k = 0; k < len; ++k)
-      s += x[offset + b * len + k];
-    out.blocks[b] = s / double(len);
+      s += x[offset + b * len + k] - ref;
+    dev[b] = s / double(len);
+    out.blocks[b] = ref + dev[b];
   }
-  double m = 0.0;
-  for (double v : out.blocks)
-    m += v;
-  m /= double(blocks);
+  double dm = 0.0;
+  for (double v : dev)
+    dm += v;
+  dm /= double(blocks);
+  const double m = ref + dm;
   double var = 0.0;
-  for (double v : out.blocks)
-    var += (v - m) * (v - m);
+  for (double v : dev)
+    var += (v - dm) * (v - dm);
   var /= double(blocks - 1);
   out.mean = m;
   out.block_std = std::sqrt(var);
