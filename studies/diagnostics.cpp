@@ -1,6 +1,7 @@
 // Stability and accuracy diagnostics shared by the timestep, stability and softness studies.
 #include "studies/diagnostics.hpp"
 
+#include <pthread.h>
 #include <time.h>
 
 #include <algorithm>
@@ -407,7 +408,7 @@ Classification classify(const ReplicaResult& result, const EnergyBalance& balanc
   Classification c;
   if (result.status.rfind("interrupted", 0) == 0) {
     c.verdict = Verdict::kIncomplete;
-    c.reason = result.status + " (wall-time budget of the study)";
+    c.reason = result.status + " (CPU-time budget of the study)";
     return c;
   }
   if (result.status != "complete") {
@@ -529,19 +530,27 @@ DiagnosedRun execute(const RunRequest& request, const Thresholds& thresholds) {
   RunOptions ro;
   ro.quiet = true;
   ro.label = request.label;
-  // Budget: a watchdog thread raises the run's stop flag after budget_seconds of wall time.
+  const double cpu_start = thread_cpu_seconds();
+  // Budget: a watchdog thread raises the run's stop flag once this thread has used
+  // budget_seconds of CPU time (CPU, not wall time, so that a loaded machine does not cut runs).
   std::atomic<bool> stop{false};
   std::mutex m;
   std::condition_variable cv;
   bool finished = false;
   std::thread watchdog;
-  if (request.budget_seconds > 0.0) {
+  clockid_t run_clock{};
+  if (request.budget_seconds > 0.0 && pthread_getcpuclockid(pthread_self(), &run_clock) == 0) {
     ro.stop = &stop;
-    watchdog = std::thread([&] {
+    watchdog = std::thread([&, run_clock] {
       std::unique_lock<std::mutex> lock(m);
-      if (!cv.wait_for(lock, std::chrono::duration<double>(request.budget_seconds),
-                       [&] { return finished; }))
-        stop.store(true);
+      while (!cv.wait_for(lock, std::chrono::milliseconds(200), [&] { return finished; })) {
+        timespec ts{};
+        clock_gettime(run_clock, &ts);
+        if (double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec) > cpu_start + request.budget_seconds) {
+          stop.store(true);
+          return;
+        }
+      }
     });
   }
   auto stop_watchdog = [&] {

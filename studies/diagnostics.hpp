@@ -144,7 +144,7 @@ struct WindowResult {
 WindowResult diagnostic_window(const RunSpec& spec, const State& start,
                                const WindowOptions& options);
 
-// kIncomplete: interrupted by the study's wall-time budget for one run (too slow to finish).
+// kIncomplete: interrupted by the study's CPU-time budget for one run (too slow to finish).
 enum class Verdict { kStable, kOscillating, kDiverged, kNotAvailable, kIncomplete };
 std::string verdict_name(Verdict v);
 

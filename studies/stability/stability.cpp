@@ -360,7 +360,7 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
       "as numbers; **oscillating** = period-2 share of the force power above 5 % (force "
       "step correlation < 0.9) or energy balance below 1 by more than max(5 %, 3σ) (dissipation "
       "inflated); "
-      "**lanes** = lane order ≥ 0.3; **incomplete** = stopped by the per-run wall-time budget (" +
+      "**lanes** = lane order ≥ 0.3; **incomplete** = stopped by the per-run CPU-time budget (" +
       short_num(preset.budget_seconds) +
       " s; 0 = none), i.e. too slow for this preset. Criteria: `studies/stability/README.md`. "
       "All runs single-threaded; CPU s is thread CPU time.\n\n";

@@ -28,7 +28,7 @@ struct StabilityPreset {
   std::vector<double> respa_dts;
   std::vector<double> cvode_tols;
   double lane_pressure = 1e-4, lane_gdot = 1e-4, lane_strain_av = 0.0;
-  double budget_seconds = 0.0;  // wall-time limit per run (0: none); over it: "incomplete"
+  double budget_seconds = 0.0;  // CPU-time limit per run (0: none); over it: "incomplete"
   long cvode_max_steps = 0;     // CVODE steps per sample interval (0: CVODE's default)
 };
 

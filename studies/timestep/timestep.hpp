@@ -24,7 +24,7 @@ struct TimestepPreset {
   std::vector<double> euler_dts;                 // the smallest is the reference
   std::vector<RespaScan> respa;
   std::vector<double> cvode_tols;
-  double budget_seconds = 0.0;  // wall-time limit per run (0: none)
+  double budget_seconds = 0.0;  // CPU-time limit per run (0: none)
   long cvode_max_steps = 0;
 };
 

@@ -135,6 +135,11 @@ struct TwoSphereCase {
   }
 };
 
+void PrintTo(const TwoSphereCase& c, std::ostream* os) {
+  *os << "inner " << (c.inner == RespaOptions::Level::kParticles ? "particles" : "piston") << ", "
+      << (c.scheme == RespaOptions::Scheme::kHeun ? "heun" : "euler") << ", n_inner " << c.n_inner;
+}
+
 class RespaTwoSpheres : public ::testing::TestWithParam<TwoSphereCase> {};
 
 TEST_P(RespaTwoSpheres, RelaxAsExpMinus2tWithDeclaredOrder) {
