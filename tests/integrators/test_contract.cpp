@@ -55,7 +55,9 @@ const Config kConfigs[] = {
 };
 
 // The step a test uses: its dt for a fixed-step configuration, its tolerance for CVODE.
-double step(const Config& c, double dt, double tol) { return c.adaptive ? tol : dt; }
+double step(const Config& c, double dt, double tol) {
+  return c.adaptive ? tol : dt;
+}
 
 std::string integrator_toml(const Config& c, double step) {
   const std::string s = fmt(step);
@@ -235,9 +237,9 @@ TEST_P(Contract, MeasuredOrderMatchesDeclared) {
   // Fixed steps: three halvings of dt against the declared order. CVODE: six decades of the
   // tolerance rtol = atol, since single decades can go the wrong way.
   const bool adaptive = c.config.adaptive;
-  const std::vector<double> dts = adaptive
-                                      ? std::vector<double>{1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9}
-                                      : std::vector<double>{0.04, 0.02, 0.01, 0.005};
+  const std::vector<double> dts =
+      adaptive ? std::vector<double>{1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9}
+               : std::vector<double>{0.04, 0.02, 0.01, 0.005};
   std::vector<double> errs;
   int declared = 0;
   for (double dt : dts) {
