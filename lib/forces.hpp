@@ -4,6 +4,7 @@
 #pragma once
 #include <Eigen/Dense>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "lib/neighbour_list.hpp"
@@ -45,10 +46,30 @@ class ForceField {
   void hessian_impl(const Pair& pair, const State& state, const NeighbourList& list,
                     const double* v, double* out) const;
 
+  // A pair force on a particle owned by another thread (see compute_impl).
+  struct Deferred {
+    std::uint32_t j;
+    double fx, fy, fz;
+  };
+  // Contacts of one block of particles (see compute_impl), per thread.
+  struct ContactScratch {
+    std::vector<std::uint32_t> i, j;
+    std::vector<double> rx, ry, rz, r2, a;
+    std::vector<Deferred> deferred;
+    void resize(std::size_t m) {
+      if (i.size() >= m)
+        return;
+      for (auto* v : {&i, &j})
+        v->resize(m);
+      for (auto* v : {&rx, &ry, &rz, &r2, &a})
+        v->resize(m);
+    }
+  };
+
   double alpha_;
   bool harmonic_;
   int threads_;
-  mutable std::vector<std::vector<double>> buffers_;  // per-thread force accumulators
+  mutable std::vector<ContactScratch> scratch_;
 };
 
 }  // namespace jamflow
