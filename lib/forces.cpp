@@ -63,6 +63,7 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
   std::vector<double> energy(nt, 0.0);
   std::vector<Eigen::Matrix<double, 6, 1>> vir(nt, Eigen::Matrix<double, 6, 1>::Zero());
   std::vector<std::size_t> contacts(nt, 0);
+  std::vector<double> squared(nt, 0.0);
 
   double* fx = out.force.data();
   double* fy = fx + n;
@@ -182,15 +183,24 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
         }
       }
     }
+    // The forces of this range are final: their squared sum, here rather than in a second
+    // parallel region.
+    double f2 = 0.0;
+#pragma omp simd reduction(+ : f2)
+    for (std::size_t i = lo; i < hi; ++i)
+      f2 += fx[i] * fx[i] + fy[i] * fy[i] + fz[i] * fz[i];
+    squared[tid] = f2;
   }
 
   out.energy = 0.0;
   out.contacts = 0;
+  out.force_squared = 0.0;
   Eigen::Matrix<double, 6, 1> w = Eigen::Matrix<double, 6, 1>::Zero();
   for (int t = 0; t < nt; ++t) {
     out.energy += energy[t];
     w += vir[t];
     out.contacts += contacts[t];
+    out.force_squared += squared[t];
   }
   // Central forces: the virial is symmetric.
   out.virial << w[0], w[3], w[4], w[3], w[1], w[5], w[4], w[5], w[2];
@@ -228,6 +238,9 @@ void ForceField::compute_all_pairs(const State& state, ForceResult& out) const {
       ++out.contacts;
     }
   }
+  out.force_squared = 0.0;
+  for (double f : out.force)
+    out.force_squared += f * f;
 }
 
 void ForceField::hessian_product(const State& state, const NeighbourList& list, const double* v,

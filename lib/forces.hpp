@@ -18,6 +18,7 @@ struct ForceResult {
   double energy = 0.0;
   Eigen::Matrix3d virial = Eigen::Matrix3d::Zero();
   std::size_t contacts = 0;
+  double force_squared = 0.0;  // sum_i |F_i|^2 (the dissipation times xi_s)
 };
 
 class ForceField {

@@ -46,13 +46,7 @@ const Evaluation& Model::evaluate() {
   eval_.volume = v;
   eval_.pressure = w.trace() / (3.0 * v);
   eval_.sigma_xy = -w(0, 1) / v;
-  double dsum = 0.0;
-  const double* f = eval_.forces.force.data();
-  const std::size_t m = eval_.forces.force.size();
-  const int nt = field_.threads();
-#pragma omp parallel for simd schedule(static) num_threads(nt) if (nt > 1) reduction(+ : dsum)
-  for (std::size_t k = 0; k < m; ++k)
-    dsum += f[k] * f[k];
+  const double dsum = eval_.forces.force_squared;
   eval_.dissipation = dsum / kXiS;
   eval_.phi = particle_volume_ / v;
   if (!std::isfinite(eval_.forces.energy) || !std::isfinite(dsum) || !std::isfinite(w.sum())) {
