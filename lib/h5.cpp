@@ -189,7 +189,9 @@ void write_dataset(hid_t file, const std::string& file_path, const std::string& 
     for (std::size_t d : dims_in) {
       product *= d;
       dims.push_back(d);
-      shape += (shape.empty() ? "" : "x") + std::to_string(d);
+      if (!shape.empty())
+        shape += 'x';
+      shape += std::to_string(d);
     }
     if (product != data.size()) {
       throw IoError(file_path + ": dataset " + quoted(path) + ": dims " + shape + " hold " +
