@@ -79,8 +79,21 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
     // thread's range (pairs across a range boundary, a thin layer of the cell order) to a
     // list that the owner adds after the barrier, in thread order: no races, no full-size
     // per-thread buffers, and a fixed summation order for a given thread count.
-    const std::size_t b0 = blocks * std::size_t(tid) / std::size_t(nthr);
-    const std::size_t b1 = blocks * std::size_t(tid + 1) / std::size_t(nthr);
+    // Ranges hold equal shares of the listed pairs (the work), not of the particles.
+    auto split = [&](int t) {
+      const double share = double(start[n]) * double(t) / double(nthr);
+      std::size_t lo_b = 0, hi_b = blocks;  // first block whose first entry reaches the share
+      while (lo_b < hi_b) {
+        const std::size_t mid = (lo_b + hi_b) / 2;
+        if (double(start[std::min(n, mid * kBlock)]) < share)
+          lo_b = mid + 1;
+        else
+          hi_b = mid;
+      }
+      return t == nthr ? blocks : lo_b;
+    };
+    const std::size_t b0 = split(tid);
+    const std::size_t b1 = split(tid + 1);
     const std::size_t lo = std::min(n, b0 * kBlock), hi = std::min(n, b1 * kBlock);
     std::fill(fx + lo, fx + hi, 0.0);
     std::fill(fy + lo, fy + hi, 0.0);

@@ -249,8 +249,10 @@ TEST_P(Contract, MeasuredOrderMatchesDeclared) {
   }
   const double slope = fitted_order(dts, errs);
   std::string listing;
-  for (double e : errs)
-    listing += " " + fmt(e);
+  for (double e : errs) {
+    listing += ' ';
+    listing += fmt(e);
+  }
   if (!adaptive) {
     // +-0.15 on the least-squares slope over three halvings of dt.
     EXPECT_NEAR(slope, double(declared), 0.15) << "errors" << listing;
