@@ -24,6 +24,7 @@
 #include "lib/h5.hpp"
 #include "lib/init.hpp"
 #include "lib/model.hpp"
+#include "tests/two_spheres.hpp"
 
 namespace jamflow {
 namespace {
@@ -105,17 +106,7 @@ class Contract : public ::testing::TestWithParam<Case> {};
 
 // --- analytic relaxation -----------------------------------------------------------------
 
-State two_spheres(double separation, double volume) {
-  State s;
-  s.resize(2);
-  s.box = Box::cubic(volume);
-  const double l = s.box.lx;
-  s.x()[0] = 0.5;
-  s.x()[1] = 0.5 + separation / l;
-  s.y()[0] = s.y()[1] = 0.5;
-  s.z()[0] = s.z()[1] = 0.5;
-  return s;
-}
+using fixtures::two_spheres;  // tests/two_spheres.hpp
 
 TEST_P(Contract, AnalyticRelaxation) {
   const Case c = GetParam();

@@ -16,23 +16,12 @@
 #include "lib/error.hpp"
 #include "lib/init.hpp"
 #include "lib/model.hpp"
+#include "tests/two_spheres.hpp"
 
 namespace jamflow {
 namespace {
 
-// Two small spheres overlapping along x in a large box: delta = 1 - r obeys
-// d delta/dt = -2 delta^(alpha - 1) (xi_s = eps = a = 1).
-State two_spheres(double separation) {
-  State s;
-  s.resize(2);
-  s.box = Box::cubic(1000.0);
-  const double l = s.box.lx;
-  s.x()[0] = 0.5;
-  s.x()[1] = 0.5 + separation / l;
-  s.y()[0] = s.y()[1] = 0.5;
-  s.z()[0] = s.z()[1] = 0.5;
-  return s;
-}
+using fixtures::two_spheres;  // tests/two_spheres.hpp
 
 double overlap(const Model& m) {
   return 1.0 - (m.state().real(1) - m.state().real(0)).norm();

@@ -6,23 +6,12 @@
 #include "ensembles/constant_volume.hpp"
 #include "integrators/euler.hpp"
 #include "lib/model.hpp"
+#include "tests/two_spheres.hpp"
 
 namespace jamflow {
 namespace {
 
-// Two small spheres overlapping along x in a large box: the overlap delta = 1 - r obeys
-// d delta / dt = -2 delta (harmonic, xi_s = eps = a = 1), so delta(t) = delta_0 exp(-2 t).
-State two_spheres(double separation) {
-  State s;
-  s.resize(2);
-  s.box = Box::cubic(1000.0);
-  const double l = s.box.lx;
-  s.x()[0] = 0.5;
-  s.x()[1] = 0.5 + separation / l;
-  s.y()[0] = s.y()[1] = 0.5;
-  s.z()[0] = s.z()[1] = 0.5;
-  return s;
-}
+using fixtures::two_spheres;  // tests/two_spheres.hpp
 
 double overlap_after(double dt, double t_end, double shear_rate) {
   Model m(two_spheres(0.8), ModelOptions{2.0, 0.3, 1, 0});

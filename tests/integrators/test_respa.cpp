@@ -11,6 +11,7 @@
 #include "integrators/respa.hpp"
 #include "lib/error.hpp"
 #include "lib/model.hpp"
+#include "tests/two_spheres.hpp"
 
 namespace jamflow {
 namespace {
@@ -98,19 +99,7 @@ TEST(Respa, DeclaredOrderPerConfiguration) {
   }
 }
 
-// Two small spheres overlapping along x in a large box (see test_euler.cpp): the overlap obeys
-// d delta/dt = -2 delta, so delta(t) = delta_0 exp(-2 t).
-State two_spheres(double separation) {
-  State s;
-  s.resize(2);
-  s.box = Box::cubic(1000.0);
-  const double l = s.box.lx;
-  s.x()[0] = 0.5;
-  s.x()[1] = 0.5 + separation / l;
-  s.y()[0] = s.y()[1] = 0.5;
-  s.z()[0] = s.z()[1] = 0.5;
-  return s;
-}
+using fixtures::two_spheres;  // tests/two_spheres.hpp
 
 double overlap_after(const RespaOptions& o, double t_end) {
   Model m(two_spheres(0.8), ModelOptions{2.0, 0.3, 1, 0});
