@@ -28,7 +28,7 @@ TEST(SoftnessStudy, TinyQuickPreset) {
   p.t_min = 300.0;
   p.strain_eq = 0.0;
   p.strain_av = 0.0;
-  p.budget_seconds = 0.0;  // no wall budget in tests (sanitizer builds are slow)
+  p.budget_seconds = 0.0;  // no CPU-time budget in tests (sanitizer builds are slow)
   const std::string dir = ::testing::TempDir() + "jamflow_softness_study";
   std::filesystem::remove_all(dir);
   StudyOptions o;

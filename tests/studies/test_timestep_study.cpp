@@ -19,7 +19,7 @@ TEST(TimestepStudy, TinyQuickPreset) {
   p.euler_dts = {0.02, 0.05, 1.5};
   p.respa.clear();
   p.cvode_tols.clear();
-  p.budget_seconds = 0.0;  // no wall budget in tests (sanitizer builds are slow)
+  p.budget_seconds = 0.0;  // no CPU-time budget in tests (sanitizer builds are slow)
   p.t_prep_min = 200.0;
   p.strain_prep = 0.0;
   p.t_eq_min = 48.0;
