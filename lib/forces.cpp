@@ -5,7 +5,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <string>
+
+#if defined(__AVX512F__) && defined(__AVX512VL__)
+#include <immintrin.h>
+#define JAMFLOW_VECTOR_KERNEL 1
+#else
+#define JAMFLOW_VECTOR_KERNEL 0
+#endif
 
 #include "lib/error.hpp"
 
@@ -22,8 +30,16 @@ ForceField::ForceField(double alpha_r, int threads)
     threads_ = omp_get_max_threads();
 }
 
+bool ForceField::vector_kernel(std::size_t n) const {
+  // Row byte offsets (row << 5) must fit 32 bits, padding rows included.
+  return JAMFLOW_VECTOR_KERNEL && harmonic_ && !portable_ &&
+         n + std::size_t(threads_) < (std::size_t(1) << 27);
+}
+
 void ForceField::compute(const State& state, const NeighbourList& list, ForceResult& out) const {
-  if (harmonic_) {
+  if (vector_kernel(state.size())) {
+    compute_harmonic_vector(state, list, out);
+  } else if (harmonic_) {
     compute_impl(HarmonicPair{}, state, list, out);
   } else {
     compute_impl(PowerPair{alpha_}, state, list, out);
@@ -38,6 +54,37 @@ void ForceField::compute(const State& state, const NeighbourList& list, ForceRes
 // buffers of one block stay in L1. Square roots and divisions vectorise only with
 // -fno-math-errno (set for the whole build); scalar, they cost about 6 ns per contact.
 constexpr std::size_t kBlock = 64;
+
+namespace {
+
+// Thread ranges: contiguous runs of blocks holding equal shares of the listed pairs (the
+// work), not of the particles, because the half list stores each pair at its lower index.
+// Returns the first block of thread t of nthr (t = nthr gives the end).
+std::size_t first_block(const std::uint32_t* start, std::size_t n, std::size_t blocks, int t,
+                        int nthr) {
+  if (t == nthr)
+    return blocks;
+  const double share = double(start[n]) * double(t) / double(nthr);
+  std::size_t lo_b = 0, hi_b = blocks;  // first block whose first entry reaches the share
+  while (lo_b < hi_b) {
+    const std::size_t mid = (lo_b + hi_b) / 2;
+    if (double(start[std::min(n, mid * kBlock)]) < share)
+      lo_b = mid + 1;
+    else
+      hi_b = mid;
+  }
+  return lo_b;
+}
+
+// 64-byte aligned view of a vector of at least `count` doubles.
+[[maybe_unused]] double* aligned_rows(std::vector<double>& v, std::size_t count) {
+  if (v.size() < count + 8)
+    v.resize(count + 8);
+  const auto p = reinterpret_cast<std::uintptr_t>(v.data());
+  return reinterpret_cast<double*>((p + 63) & ~std::uintptr_t(63));
+}
+
+}  // namespace
 
 template <class Pair>
 void ForceField::compute_impl(const Pair& pair, const State& state, const NeighbourList& list,
@@ -54,8 +101,8 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
   const double* sy = state.y();
   const double* sz = state.z();
   const double* d = state.diameter.data();
-  const std::uint32_t* start = list.start().data();
-  const std::uint32_t* entries = list.entries().data();
+  const std::uint32_t* start = list.inner_start().data();
+  const std::uint32_t* entries = list.inner_entries().data();
   const auto& shift = NeighbourList::shifts();
   const std::size_t capacity = kBlock * std::max<std::size_t>(1, list.max_row());
 
@@ -79,21 +126,8 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
     // thread's range (pairs across a range boundary, a thin layer of the cell order) to a
     // list that the owner adds after the barrier, in thread order: no races, no full-size
     // per-thread buffers, and a fixed summation order for a given thread count.
-    // Ranges hold equal shares of the listed pairs (the work), not of the particles.
-    auto split = [&](int t) {
-      const double share = double(start[n]) * double(t) / double(nthr);
-      std::size_t lo_b = 0, hi_b = blocks;  // first block whose first entry reaches the share
-      while (lo_b < hi_b) {
-        const std::size_t mid = (lo_b + hi_b) / 2;
-        if (double(start[std::min(n, mid * kBlock)]) < share)
-          lo_b = mid + 1;
-        else
-          hi_b = mid;
-      }
-      return t == nthr ? blocks : lo_b;
-    };
-    const std::size_t b0 = split(tid);
-    const std::size_t b1 = split(tid + 1);
+    const std::size_t b0 = first_block(start, n, blocks, tid, nthr);
+    const std::size_t b1 = first_block(start, n, blocks, tid + 1, nthr);
     const std::size_t lo = std::min(n, b0 * kBlock), hi = std::min(n, b1 * kBlock);
     std::fill(fx + lo, fx + hi, 0.0);
     std::fill(fy + lo, fy + hi, 0.0);
@@ -219,6 +253,219 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
   out.virial << w[0], w[3], w[4], w[3], w[1], w[5], w[4], w[5], w[2];
 }
 
+// The vector kernel (alpha_r = 2, AVX-512VL). It walks the inner list as flat pairs, four at a
+// time; the inner list is ~85 % contacts near jamming, so no gathering into contact buffers is
+// needed. Positions and radii are first laid out as one 32-byte row per particle in real space
+// (x, y, z, a_i), so a pair's data is one load per particle and a 4x4 transpose; the real-space
+// image shifts h n of the 27 codes are a small table. Forces go to rows of the same shape, one
+// add per particle per pair, and are copied to the SoA result at the end. Threads own ranges
+// as in compute_impl; padding lanes point at an idle row of their thread.
+#if JAMFLOW_VECTOR_KERNEL
+namespace {
+
+inline void transpose4(const __m256d* q, __m256d& x, __m256d& y, __m256d& z, __m256d& w) {
+  const __m256d t0 = _mm256_unpacklo_pd(q[0], q[1]);  // x0 x1 z0 z1
+  const __m256d t1 = _mm256_unpackhi_pd(q[0], q[1]);  // y0 y1 w0 w1
+  const __m256d t2 = _mm256_unpacklo_pd(q[2], q[3]);  // x2 x3 z2 z3
+  const __m256d t3 = _mm256_unpackhi_pd(q[2], q[3]);  // y2 y3 w2 w3
+  x = _mm256_permute2f128_pd(t0, t2, 0x20);
+  z = _mm256_permute2f128_pd(t0, t2, 0x31);
+  y = _mm256_permute2f128_pd(t1, t3, 0x20);
+  w = _mm256_permute2f128_pd(t1, t3, 0x31);
+}
+
+inline double lane_sum(__m256d v) {
+  alignas(32) double t[4];
+  _mm256_store_pd(t, v);
+  return (t[0] + t[1]) + (t[2] + t[3]);
+}
+
+}  // namespace
+
+void ForceField::compute_harmonic_vector(const State& state, const NeighbourList& list,
+                                         ForceResult& out) const {
+  const std::size_t n = state.size();
+  out.force.resize(3 * n);
+  const int nt = threads_;
+  if (int(scratch_.size()) < nt)
+    scratch_.resize(nt);
+  const std::size_t rows = n + std::size_t(nt);
+  double* pos = aligned_rows(rows_pos_, 4 * rows);
+  double* frc = aligned_rows(rows_force_, 4 * rows);
+
+  const Eigen::Matrix3d h = state.box.h();
+  const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
+  alignas(64) double shift[27 * 4];
+  for (int c = 0; c < 27; ++c) {
+    const auto& sh = NeighbourList::shifts()[c];
+    shift[4 * c] = hxx * sh[0] + hxy * sh[1];
+    shift[4 * c + 1] = hyy * sh[1];
+    shift[4 * c + 2] = hzz * sh[2];
+    shift[4 * c + 3] = 0.0;
+  }
+  const double* sx = state.x();
+  const double* sy = state.y();
+  const double* sz = state.z();
+  const double* d = state.diameter.data();
+  const std::uint32_t* start = list.inner_start().data();
+  const std::uint32_t* entries = list.inner_entries().data();
+  const std::uint32_t* owner = list.inner_owner().data();
+
+  std::vector<double> energy(nt, 0.0);
+  std::vector<Eigen::Matrix<double, 6, 1>> vir(nt, Eigen::Matrix<double, 6, 1>::Zero());
+  std::vector<std::size_t> contacts(nt, 0);
+  std::vector<double> squared(nt, 0.0);
+  double* fx = out.force.data();
+  double* fy = fx + n;
+  double* fz = fy + n;
+  const std::size_t blocks = (n + kBlock - 1) / kBlock;
+  constexpr unsigned kBits = NeighbourList::kCodeBits;
+  constexpr std::uint32_t kZeroShift = 13;  // image code of n = (0, 0, 0)
+
+#pragma omp parallel num_threads(nt)
+  {
+    const int tid = omp_get_thread_num();
+    const int nthr = omp_get_num_threads();
+    const std::size_t b0 = first_block(start, n, blocks, tid, nthr);
+    const std::size_t b1 = first_block(start, n, blocks, tid + 1, nthr);
+    const std::size_t lo = std::min(n, b0 * kBlock), hi = std::min(n, b1 * kBlock);
+    const std::size_t idle = n + std::size_t(tid);
+    for (std::size_t i = lo; i < hi; ++i) {
+      pos[4 * i] = hxx * sx[i] + hxy * sy[i];
+      pos[4 * i + 1] = hyy * sy[i];
+      pos[4 * i + 2] = hzz * sz[i];
+      pos[4 * i + 3] = 0.5 * d[i];
+    }
+    std::fill(frc + 4 * lo, frc + 4 * hi, 0.0);
+    // The idle row: radius 0 at the origin, so a padding pair (idle, idle) never touches.
+    std::fill(pos + 4 * idle, pos + 4 * idle + 4, 0.0);
+    std::fill(frc + 4 * idle, frc + 4 * idle + 4, 0.0);
+    ContactScratch& cs = scratch_[tid];
+    cs.deferred.clear();
+#pragma omp barrier  // every row is written before any thread reads its neighbours
+
+    const char* prow = reinterpret_cast<const char*>(pos);
+    const char* srow = reinterpret_cast<const char*>(shift);
+    char* frow = reinterpret_cast<char*>(frc);
+    const std::uint32_t lo_off = std::uint32_t(lo) << kBits, hi_off = std::uint32_t(hi) << kBits;
+    const std::uint32_t idle_off = std::uint32_t(idle) << kBits;
+    const __m256d one = _mm256_set1_pd(1.0), zero = _mm256_setzero_pd();
+    __m256d u = zero, wxx = zero, wyy = zero, wzz = zero, wxy = zero, wxz = zero, wyz = zero;
+    std::size_t nc = 0;
+    const std::uint32_t k0 = start[lo], k1 = start[hi];
+    for (std::uint32_t k = k0; k < k1; k += 4) {
+      std::uint32_t io[4], je[4];
+      if (k + 4 <= k1) {
+        for (int l = 0; l < 4; ++l) {
+          io[l] = owner[k + l] << kBits;
+          je[l] = entries[k + l];
+        }
+      } else {
+        for (int l = 0; l < 4; ++l) {
+          const bool real = k + l < k1;
+          io[l] = real ? owner[k + l] << kBits : idle_off;
+          je[l] = real ? entries[k + l] : idle_off | kZeroShift;
+        }
+      }
+      __m256d qi[4], qj[4];
+      for (int l = 0; l < 4; ++l) {
+        const std::uint32_t jo = je[l] & ~NeighbourList::kCodeMask;
+        const std::uint32_t so = (je[l] & NeighbourList::kCodeMask) << 5;
+        qi[l] = _mm256_load_pd(reinterpret_cast<const double*>(prow + io[l]));
+        // r_ij = x_i - (x_j - h n): subtract the image shift from the partner's row.
+        qj[l] = _mm256_sub_pd(_mm256_load_pd(reinterpret_cast<const double*>(prow + jo)),
+                              _mm256_load_pd(reinterpret_cast<const double*>(srow + so)));
+      }
+      __m256d xi, yi, zi, ai, xj, yj, zj, aj;
+      transpose4(qi, xi, yi, zi, ai);
+      transpose4(qj, xj, yj, zj, aj);
+      const __m256d rx = _mm256_sub_pd(xi, xj), ry = _mm256_sub_pd(yi, yj),
+                    rz = _mm256_sub_pd(zi, zj);
+      const __m256d a = _mm256_add_pd(ai, aj);
+      const __m256d r2 = _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
+      const __mmask8 touch = _mm256_cmp_pd_mask(r2, _mm256_mul_pd(a, a), _CMP_LT_OQ);
+      nc += std::size_t(__builtin_popcount(touch));
+      // HarmonicPair on the touching lanes; the others get harmless 1s and a zero force.
+      const __m256d r = _mm256_sqrt_pd(_mm256_mask_mov_pd(one, touch, r2));
+      const __m256d inv_a = _mm256_div_pd(one, _mm256_mask_mov_pd(one, touch, a));
+      const __m256d delta = _mm256_maskz_mov_pd(touch, _mm256_fnmadd_pd(r, inv_a, one));
+      const __m256d f_over_r = _mm256_div_pd(_mm256_mul_pd(delta, inv_a), r);
+      const __m256d gx = _mm256_mul_pd(f_over_r, rx), gy = _mm256_mul_pd(f_over_r, ry),
+                    gz = _mm256_mul_pd(f_over_r, rz);
+      u = _mm256_fmadd_pd(delta, delta, u);
+      wxx = _mm256_fmadd_pd(rx, gx, wxx);
+      wyy = _mm256_fmadd_pd(ry, gy, wyy);
+      wzz = _mm256_fmadd_pd(rz, gz, wzz);
+      wxy = _mm256_fmadd_pd(rx, gy, wxy);
+      wxz = _mm256_fmadd_pd(rx, gz, wxz);
+      wyz = _mm256_fmadd_pd(ry, gz, wyz);
+      // Back to rows (gx, gy, gz, 0), then Newton's third law.
+      const __m256d s0 = _mm256_unpacklo_pd(gx, gy);    // x0 y0 x2 y2
+      const __m256d s1 = _mm256_unpackhi_pd(gx, gy);    // x1 y1 x3 y3
+      const __m256d s2 = _mm256_unpacklo_pd(gz, zero);  // z0 0 z2 0
+      const __m256d s3 = _mm256_unpackhi_pd(gz, zero);  // z1 0 z3 0
+      const __m256d g[4] = {
+          _mm256_permute2f128_pd(s0, s2, 0x20), _mm256_permute2f128_pd(s1, s3, 0x20),
+          _mm256_permute2f128_pd(s0, s2, 0x31), _mm256_permute2f128_pd(s1, s3, 0x31)};
+      for (int l = 0; l < 4; ++l) {
+        double* fi = reinterpret_cast<double*>(frow + io[l]);
+        _mm256_store_pd(fi, _mm256_add_pd(_mm256_load_pd(fi), g[l]));
+        const std::uint32_t jo = je[l] & ~NeighbourList::kCodeMask;
+        if (jo >= lo_off && jo < hi_off) {
+          double* fj = reinterpret_cast<double*>(frow + jo);
+          _mm256_store_pd(fj, _mm256_sub_pd(_mm256_load_pd(fj), g[l]));
+        } else {
+          alignas(32) double t[4];
+          _mm256_store_pd(t, g[l]);
+          cs.deferred.push_back({jo >> kBits, -t[0], -t[1], -t[2]});
+        }
+      }
+    }
+    energy[tid] = 0.5 * lane_sum(u);
+    vir[tid] << lane_sum(wxx), lane_sum(wyy), lane_sum(wzz), lane_sum(wxy), lane_sum(wxz),
+        lane_sum(wyz);
+    contacts[tid] = nc;
+    if (nthr > 1) {
+#pragma omp barrier
+      for (int t = 0; t < nthr; ++t) {
+        for (const Deferred& df : scratch_[t].deferred) {
+          if (df.j >= lo && df.j < hi) {  // padding lanes (idle rows) belong to no range
+            frc[4 * df.j] += df.fx;
+            frc[4 * df.j + 1] += df.fy;
+            frc[4 * df.j + 2] += df.fz;
+          }
+        }
+      }
+    }
+    double f2 = 0.0;
+    for (std::size_t i = lo; i < hi; ++i) {
+      fx[i] = frc[4 * i];
+      fy[i] = frc[4 * i + 1];
+      fz[i] = frc[4 * i + 2];
+      f2 += fx[i] * fx[i] + fy[i] * fy[i] + fz[i] * fz[i];
+    }
+    squared[tid] = f2;
+  }
+
+  out.energy = 0.0;
+  out.contacts = 0;
+  out.force_squared = 0.0;
+  Eigen::Matrix<double, 6, 1> w = Eigen::Matrix<double, 6, 1>::Zero();
+  for (int t = 0; t < nt; ++t) {
+    out.energy += energy[t];
+    w += vir[t];
+    out.contacts += contacts[t];
+    out.force_squared += squared[t];
+  }
+  out.virial << w[0], w[3], w[4], w[3], w[1], w[5], w[4], w[5], w[2];
+}
+#else
+void ForceField::compute_harmonic_vector(const State& state, const NeighbourList& list,
+                                         ForceResult& out) const {
+  compute_impl(HarmonicPair{}, state, list, out);  // not reached: vector_kernel() is false
+}
+#endif
+
 void ForceField::compute_all_pairs(const State& state, ForceResult& out) const {
   const std::size_t n = state.size();
   out.force.assign(3 * n, 0.0);
@@ -275,8 +522,8 @@ void ForceField::hessian_impl(const Pair& pair, const State& state, const Neighb
   const Eigen::Matrix3d h = state.box.h();
   const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
   const auto& shift = NeighbourList::shifts();
-  const auto& start = list.start();
-  const auto& entries = list.entries();
+  const auto& start = list.inner_start();
+  const auto& entries = list.inner_entries();
   for (std::size_t i = 0; i < n; ++i) {
     for (std::uint32_t k = start[i]; k < start[i + 1]; ++k) {
       const std::uint32_t e = entries[k];

@@ -29,8 +29,14 @@ class ForceField {
   double alpha() const { return alpha_; }
   int threads() const { return threads_; }
 
-  // Fast path: over the neighbour list (which must be valid for the state).
+  // Fast path: over the neighbour list's inner list (which must be valid for the state).
+  // With AVX-512VL at build time and alpha_r = 2, a 4-lane vector kernel; otherwise, or after
+  // use_portable_kernel(true), the portable blocked kernel. Both give the same forces up to
+  // round-off (tested).
   void compute(const State& state, const NeighbourList& list, ForceResult& out) const;
+  // True when compute() takes the vector kernel for a system of n particles.
+  bool vector_kernel(std::size_t n) const;
+  void use_portable_kernel(bool portable) { portable_ = portable; }
   // Reference path: every pair, minimum image, no list. O(N^2), for tests.
   void compute_all_pairs(const State& state, ForceResult& out) const;
 
@@ -43,6 +49,8 @@ class ForceField {
   template <class Pair>
   void compute_impl(const Pair& pair, const State& state, const NeighbourList& list,
                     ForceResult& out) const;
+  void compute_harmonic_vector(const State& state, const NeighbourList& list,
+                               ForceResult& out) const;
   template <class Pair>
   void hessian_impl(const Pair& pair, const State& state, const NeighbourList& list,
                     const double* v, double* out) const;
@@ -70,7 +78,11 @@ class ForceField {
   double alpha_;
   bool harmonic_;
   int threads_;
+  bool portable_ = false;
   mutable std::vector<ContactScratch> scratch_;
+  // Vector kernel: rows of 4 doubles per particle (position, radius / force), 64-byte
+  // aligned inside the vectors, plus one idle row per thread for padding lanes.
+  mutable std::vector<double> rows_pos_, rows_force_;
 };
 
 }  // namespace jamflow

@@ -29,10 +29,17 @@ void Model::reset_state(State state) {
 }
 
 void Model::refresh_list() {
-  if (list_.valid(state_, field_.threads()))
-    return;
-  state_.wrap();
-  list_.build(state_);
+  switch (list_.status(state_, field_.threads())) {
+    case NeighbourList::Status::kValid:
+      return;
+    case NeighbourList::Status::kInnerStale:
+      list_.refresh_inner(state_);
+      return;
+    case NeighbourList::Status::kStale:
+      state_.wrap();
+      list_.build(state_);
+      return;
+  }
 }
 
 const Evaluation& Model::evaluate() {

@@ -63,6 +63,7 @@ void NeighbourList::set_skin(double skin) {
     throw ConfigError("neighbour skin = " + std::to_string(skin) + " must be > 0");
   }
   skin_ = skin;
+  inner_skin_ = std::min(kInnerSkin, 0.5 * skin);
   built_ = false;
 }
 
@@ -153,13 +154,47 @@ void NeighbourList::build(const State& state) {
     }
   }
 
-  max_row_ = 0;
-  for (std::size_t i = 0; i < n; ++i)
-    max_row_ = std::max<std::size_t>(max_row_, start_[i + 1] - start_[i]);
   ref_pos_ = state.pos;
   h_ref_inv_ = state.box.h_inv();
   built_ = true;
   ++builds_;
+  refresh_inner(state);
+}
+
+void NeighbourList::refresh_inner(const State& state) {
+  const std::size_t n = state.size();
+  const Eigen::Matrix3d h = state.box.h();
+  const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
+  const double* sx = state.x();
+  const double* sy = state.y();
+  const double* sz = state.z();
+  const double* d = state.diameter.data();
+  const auto& shift = shifts();
+  inner_start_.assign(n + 1, 0);
+  inner_entries_.clear();
+  inner_owner_.clear();
+  max_row_ = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::uint32_t k = start_[i]; k < start_[i + 1]; ++k) {
+      const std::uint32_t e = entries_[k];
+      const std::uint32_t j = e >> kCodeBits;
+      const auto& sh = shift[e & kCodeMask];
+      const double dx = sx[i] - sx[j] + sh[0];
+      const double dy = sy[i] - sy[j] + sh[1];
+      const double dz = sz[i] - sz[j] + sh[2];
+      const double rx = hxx * dx + hxy * dy, ry = hyy * dy, rz = hzz * dz;
+      const double cut = 0.5 * (d[i] + d[j]) + inner_skin_;
+      if (rx * rx + ry * ry + rz * rz < cut * cut) {
+        inner_entries_.push_back(e);
+        inner_owner_.push_back(std::uint32_t(i));
+      }
+    }
+    inner_start_[i + 1] = static_cast<std::uint32_t>(inner_entries_.size());
+    max_row_ = std::max<std::size_t>(max_row_, inner_start_[i + 1] - inner_start_[i]);
+  }
+  inner_ref_pos_ = state.pos;
+  inner_h_ref_inv_ = state.box.h_inv();
+  ++inner_builds_;
 }
 
 void NeighbourList::build_all_pairs(const State& state) {
@@ -182,11 +217,10 @@ void NeighbourList::build_all_pairs(const State& state) {
   }
 }
 
-bool NeighbourList::valid(const State& state, int threads) const {
-  if (!built_ || ref_pos_.size() != state.pos.size())
-    return false;
+NeighbourList::Drift NeighbourList::drift(const State& state, const std::vector<double>& ref,
+                                          const Eigen::Matrix3d& h_ref_inv, int threads) const {
   const Eigen::Matrix3d h = state.box.h();
-  const Eigen::Matrix3d m = h * h_ref_inv_;
+  const Eigen::Matrix3d m = h * h_ref_inv;
   const double sigma_min = std::sqrt(std::max(
       0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(m.transpose() * m, Eigen::EigenvaluesOnly)
                .eigenvalues()
@@ -194,7 +228,7 @@ bool NeighbourList::valid(const State& state, int threads) const {
   const std::size_t n = state.size();
   const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
   const double* p = state.pos.data();
-  const double* q = ref_pos_.data();
+  const double* q = ref.data();
   double d2max = 0.0, d2sum = 0.0;
 #pragma omp parallel for simd schedule(static) num_threads(threads) if (threads > 1) \
     reduction(max : d2max) reduction(+ : d2sum)
@@ -208,12 +242,26 @@ bool NeighbourList::valid(const State& state, int threads) const {
   // A NaN never wins the max comparison, but it does poison the sum.
   if (!std::isfinite(d2sum))
     throw IntegrationError("particle positions became non-finite");
-  const double dmax = std::sqrt(d2max);
+  return {std::sqrt(d2max), sigma_min};
+}
+
+bool NeighbourList::holds(const Drift& d, double skin, double margin) const {
+  // Linear in a, so the extreme diameters decide.
   for (double a : {a_min_, a_max_}) {
-    if (sigma_min * (a + skin_) - 2.0 * dmax < a)
+    if (d.sigma_min * (a + skin) - 2.0 * d.d_max < a + margin)
       return false;
   }
   return true;
+}
+
+NeighbourList::Status NeighbourList::status(const State& state, int threads) const {
+  if (!built_ || ref_pos_.size() != state.pos.size())
+    return Status::kStale;
+  if (holds(drift(state, inner_ref_pos_, inner_h_ref_inv_, threads), inner_skin_, 0.0))
+    return Status::kValid;
+  if (holds(drift(state, ref_pos_, h_ref_inv_, threads), skin_, inner_skin_))
+    return Status::kInnerStale;
+  return Status::kStale;
 }
 
 std::vector<std::uint32_t> NeighbourList::cell_order(const State& state, double cell_size) {

@@ -7,6 +7,14 @@
 // a bound that holds for any affine change of the cell: with M = h h_ref^-1 and d_max the
 // largest non-affine displacement since the build, every pair outside the list is still
 // farther apart than contact while  sigma_min(M) (a + skin) - 2 d_max >= a  for all a_ij.
+//
+// Two levels. The force pass reads an inner list: the pairs of the outer list within
+// a_ij + inner_skin (0.05 by default), with its own reference positions and the same bound.
+// Near jamming it holds ~3.7 pairs per particle, 3.1 of them touching, against 5.3 in the
+// outer list. When the inner bound fails, the inner list is re-selected from the outer one,
+// which is cheap, provided the outer list still holds every pair within a_ij + inner_skin:
+// sigma_min(M_outer) (a + skin) - 2 d_outer >= a + inner_skin. Otherwise both are rebuilt.
+// (GROMACS's dynamic pruning of its pair list works the same way.)
 #pragma once
 #include <Eigen/Dense>
 #include <array>
@@ -24,37 +32,70 @@ class NeighbourList {
   static constexpr std::uint32_t kCodeMask = (1u << kCodeBits) - 1;
   static constexpr std::uint32_t kMaxParticles = (1u << (32 - kCodeBits)) - 1;
 
+  // Inner skin of the list the force pass reads (see above); at most half the skin.
+  static constexpr double kInnerSkin = 0.05;
+
   explicit NeighbourList(double skin = 0.3);
 
   double skin() const { return skin_; }
+  double inner_skin() const { return inner_skin_; }
   void set_skin(double skin);
 
-  // Builds the list. The state must be wrapped (scaled coordinates in [0, 1)).
+  // Builds both lists. The state must be wrapped (scaled coordinates in [0, 1)).
   void build(const State& state);
-  // False when a pair outside the list might now be in contact, or the list was never built.
-  bool valid(const State& state, int threads = 1) const;
+
+  enum class Status {
+    kValid,       // the inner list holds every pair in contact
+    kInnerStale,  // re-select the inner list from the outer one (refresh_inner)
+    kStale,       // rebuild both (build), or never built
+  };
+  Status status(const State& state, int threads = 1) const;
+  // True when the inner list (and so the outer one) holds every pair in contact.
+  bool valid(const State& state, int threads = 1) const {
+    return status(state, threads) == Status::kValid;
+  }
+  // Re-selects the inner list from the outer one; only after status() said kInnerStale.
+  void refresh_inner(const State& state);
   void invalidate() { built_ = false; }
 
+  // Outer list, CSR by i: all pairs within a_ij + skin at the last build.
   const std::vector<std::uint32_t>& start() const { return start_; }      // size n + 1
   const std::vector<std::uint32_t>& entries() const { return entries_; }  // j << 5 | code
+  // Inner list, the same layout, and the i of each entry (for loops over flat pairs).
+  const std::vector<std::uint32_t>& inner_start() const { return inner_start_; }
+  const std::vector<std::uint32_t>& inner_entries() const { return inner_entries_; }
+  const std::vector<std::uint32_t>& inner_owner() const { return inner_owner_; }
   // Scaled shift subtracted for an image code: -n, for n in {-1, 0, 1}^3.
   static const std::array<std::array<double, 3>, 27>& shifts();
 
-  std::size_t builds() const { return builds_; }
-  std::size_t max_row() const { return max_row_; }  // longest neighbour row of one particle
+  std::size_t builds() const { return builds_; }              // outer (full) builds
+  std::size_t inner_builds() const { return inner_builds_; }  // inner selections, all
+  std::size_t max_row() const { return max_row_; }            // longest inner row of one particle
   std::size_t pairs() const { return entries_.size(); }
+  std::size_t inner_pairs() const { return inner_entries_.size(); }
 
   // Permutation that orders particles by cell (memory locality for the pair loop).
   static std::vector<std::uint32_t> cell_order(const State& state, double cell_size);
 
  private:
   void build_all_pairs(const State& state);
-  double skin_;
+  // Largest displacement since `ref` (real space, current cell) and sigma_min(h h_ref^-1).
+  struct Drift {
+    double d_max, sigma_min;
+  };
+  Drift drift(const State& state, const std::vector<double>& ref, const Eigen::Matrix3d& h_ref_inv,
+              int threads) const;
+  // Every pair farther than a + margin when listed at `skin` still is beyond a + margin.
+  bool holds(const Drift& d, double skin, double margin) const;
+
+  double skin_, inner_skin_;
   bool built_ = false;
-  std::size_t builds_ = 0;
+  std::size_t builds_ = 0, inner_builds_ = 0;
   std::vector<std::uint32_t> start_, entries_;
-  std::vector<double> ref_pos_;
+  std::vector<std::uint32_t> inner_start_, inner_entries_, inner_owner_;
+  std::vector<double> ref_pos_, inner_ref_pos_;
   Eigen::Matrix3d h_ref_inv_ = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d inner_h_ref_inv_ = Eigen::Matrix3d::Identity();
   double a_min_ = 0.0, a_max_ = 0.0;
   std::size_t max_row_ = 0;
 };
