@@ -28,11 +28,14 @@ struct Result {
   double ns_per_particle_step;
   double cpu_ns_per_particle_step;  // process CPU time / threads: robust to a loaded machine
   double particle_steps_per_s;
-  std::size_t builds;
+  std::size_t builds;     // full list builds in the window
+  std::size_t refreshes;  // inner-list re-selections without a full build
+  const char* kernel;
 };
 
 Result time_window(Model& m, const ConstantVolume& ens, Euler& euler, long steps, double dt) {
   const std::size_t builds0 = m.list_builds();
+  const std::size_t inner0 = m.neighbour_list().inner_builds();
   const double t0 = m.state().time;
   const auto w0 = std::chrono::steady_clock::now();
   const std::clock_t c0 = std::clock();
@@ -40,8 +43,13 @@ Result time_window(Model& m, const ConstantVolume& ens, Euler& euler, long steps
   const double cpu = double(std::clock() - c0) / CLOCKS_PER_SEC;
   const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
   const double ps = double(steps) * double(m.state().size());
-  return {1e9 * sec / ps, 1e9 * cpu / ps / m.force_field().threads(), ps / sec,
-          m.list_builds() - builds0};
+  const std::size_t builds = m.list_builds() - builds0;
+  return {1e9 * sec / ps,
+          1e9 * cpu / ps / m.force_field().threads(),
+          ps / sec,
+          builds,
+          m.neighbour_list().inner_builds() - inner0 - builds,
+          m.force_field().vector_kernel(m.state().size()) ? "avx512" : "portable"};
 }
 
 }  // namespace
@@ -71,8 +79,8 @@ int main(int argc, char** argv) {
   const int all = omp_get_max_threads();
   std::printf("jamflow throughput: Euler, phi = %.2f, gdot = %g, dt = %g, %d cores available\n",
               phi, gdot, dt, all);
-  std::printf("%8s %8s %14s %14s %16s %10s %8s\n", "N", "threads", "ns/part-step", "cpu-ns/p-step",
-              "part-steps/s", "speed-up", "rebuilds");
+  std::printf("%8s %8s %14s %14s %16s %10s %8s %8s %s\n", "N", "threads", "ns/part-step",
+              "cpu-ns/p-step", "part-steps/s", "speed-up", "rebuilds", "refresh", "kernel");
   for (std::size_t n : sizes) {
     // Pre-shear once: relax the random overlaps and reach steady flow (strain 0.3).
     ConstantVolume ens(gdot);
@@ -98,9 +106,9 @@ int main(int argc, char** argv) {
       const Result r = time_window(run, ens, euler, steps, dt);
       if (threads == 1)
         base = r.ns_per_particle_step;
-      std::printf("%8zu %8d %14.2f %14.2f %16.3e %10.2f %8zu\n", n, threads, r.ns_per_particle_step,
-                  r.cpu_ns_per_particle_step, r.particle_steps_per_s, base / r.ns_per_particle_step,
-                  r.builds);
+      std::printf("%8zu %8d %14.2f %14.2f %16.3e %10.2f %8zu %8zu %s\n", n, threads,
+                  r.ns_per_particle_step, r.cpu_ns_per_particle_step, r.particle_steps_per_s,
+                  base / r.ns_per_particle_step, r.builds, r.refreshes, r.kernel);
       std::fflush(stdout);
     }
   }

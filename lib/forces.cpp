@@ -280,6 +280,106 @@ inline double lane_sum(__m256d v) {
   return (t[0] + t[1]) + (t[2] + t[3]);
 }
 
+struct VectorSums {
+  __m256d u, wxx, wyy, wzz, wxy, wxz, wyz;
+  std::size_t contacts;
+};
+
+// Pairs [k0, k1) of the inner list (owners in [lo, hi)): pair law, energy, virial, and forces
+// into the rows. With Shared (several threads), a force on a partner outside [lo, hi) goes to
+// `far` instead. Padding lanes use the thread's idle row.
+template <bool Shared>
+VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
+                        const std::uint32_t* owner, const std::uint32_t* entries, std::size_t k0,
+                        std::size_t k1, std::size_t lo, std::size_t hi, std::size_t idle,
+                        DeferredForce* far, std::size_t& nfar) {
+  constexpr unsigned kBits = NeighbourList::kCodeBits;
+  constexpr std::size_t kZeroShift = 13;  // image code of n = (0, 0, 0)
+  const char* prow = reinterpret_cast<const char*>(pos);
+  const char* srow = reinterpret_cast<const char*>(shift);
+  char* frow = reinterpret_cast<char*>(frc);
+  const std::size_t lo_off = lo << kBits, span = (hi - lo) << kBits;
+  const std::size_t idle_off = idle << kBits;
+  const __m256d one = _mm256_set1_pd(1.0), zero = _mm256_setzero_pd();
+  __m256d u = zero, wxx = zero, wyy = zero, wzz = zero, wxy = zero, wxz = zero, wyz = zero;
+  std::size_t nc = 0, nf = nfar;
+  const auto chunk = [&](const std::size_t* io, const std::size_t* jo, const std::size_t* so) {
+    __m256d qi[4], qj[4];
+    for (int l = 0; l < 4; ++l) {
+      qi[l] = _mm256_load_pd(reinterpret_cast<const double*>(prow + io[l]));
+      // r_ij = x_i - (x_j - h n): subtract the image shift from the partner's row.
+      qj[l] = _mm256_sub_pd(_mm256_load_pd(reinterpret_cast<const double*>(prow + jo[l])),
+                            _mm256_load_pd(reinterpret_cast<const double*>(srow + so[l])));
+    }
+    __m256d xi, yi, zi, ai, xj, yj, zj, aj;
+    transpose4(qi, xi, yi, zi, ai);
+    transpose4(qj, xj, yj, zj, aj);
+    const __m256d rx = _mm256_sub_pd(xi, xj), ry = _mm256_sub_pd(yi, yj),
+                  rz = _mm256_sub_pd(zi, zj);
+    const __m256d a = _mm256_add_pd(ai, aj);
+    const __m256d r2 = _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
+    const __mmask8 touch = _mm256_cmp_pd_mask(r2, _mm256_mul_pd(a, a), _CMP_LT_OQ);
+    nc += std::size_t(__builtin_popcount(touch));
+    // HarmonicPair on the touching lanes; the others get harmless 1s and a zero force.
+    const __m256d r = _mm256_sqrt_pd(_mm256_mask_mov_pd(one, touch, r2));
+    const __m256d inv_a = _mm256_div_pd(one, _mm256_mask_mov_pd(one, touch, a));
+    const __m256d delta = _mm256_maskz_mov_pd(touch, _mm256_fnmadd_pd(r, inv_a, one));
+    const __m256d f_over_r = _mm256_div_pd(_mm256_mul_pd(delta, inv_a), r);
+    const __m256d gx = _mm256_mul_pd(f_over_r, rx), gy = _mm256_mul_pd(f_over_r, ry),
+                  gz = _mm256_mul_pd(f_over_r, rz);
+    u = _mm256_fmadd_pd(delta, delta, u);
+    wxx = _mm256_fmadd_pd(rx, gx, wxx);
+    wyy = _mm256_fmadd_pd(ry, gy, wyy);
+    wzz = _mm256_fmadd_pd(rz, gz, wzz);
+    wxy = _mm256_fmadd_pd(rx, gy, wxy);
+    wxz = _mm256_fmadd_pd(rx, gz, wxz);
+    wyz = _mm256_fmadd_pd(ry, gz, wyz);
+    // Back to rows (gx, gy, gz, 0), then Newton's third law.
+    const __m256d s0 = _mm256_unpacklo_pd(gx, gy);    // x0 y0 x2 y2
+    const __m256d s1 = _mm256_unpackhi_pd(gx, gy);    // x1 y1 x3 y3
+    const __m256d s2 = _mm256_unpacklo_pd(gz, zero);  // z0 0 z2 0
+    const __m256d s3 = _mm256_unpackhi_pd(gz, zero);  // z1 0 z3 0
+    const __m256d g[4] = {
+        _mm256_permute2f128_pd(s0, s2, 0x20), _mm256_permute2f128_pd(s1, s3, 0x20),
+        _mm256_permute2f128_pd(s0, s2, 0x31), _mm256_permute2f128_pd(s1, s3, 0x31)};
+    for (int l = 0; l < 4; ++l) {
+      double* fi = reinterpret_cast<double*>(frow + io[l]);
+      _mm256_store_pd(fi, _mm256_add_pd(_mm256_load_pd(fi), g[l]));
+      if (!Shared || jo[l] - lo_off < span || jo[l] == idle_off) {
+        double* fj = reinterpret_cast<double*>(frow + jo[l]);
+        _mm256_store_pd(fj, _mm256_sub_pd(_mm256_load_pd(fj), g[l]));
+      } else {
+        alignas(32) double t[4];
+        _mm256_store_pd(t, g[l]);
+        far[nf++] = {std::uint32_t(jo[l] >> kBits), -t[0], -t[1], -t[2]};
+      }
+    }
+  };
+  std::size_t io[4], jo[4], so[4];
+  std::size_t k = k0;
+  for (; k + 4 <= k1; k += 4) {
+    for (int l = 0; l < 4; ++l) {
+      const std::size_t e = entries[k + l];
+      io[l] = std::size_t(owner[k + l]) << kBits;
+      jo[l] = e & ~std::size_t(NeighbourList::kCodeMask);
+      so[l] = (e & NeighbourList::kCodeMask) << 5;
+    }
+    chunk(io, jo, so);
+  }
+  if (k < k1) {  // the last, partial chunk
+    for (int l = 0; l < 4; ++l) {
+      const bool real = k + std::size_t(l) < k1;
+      const std::size_t e = real ? std::size_t(entries[k + l]) : idle_off | kZeroShift;
+      io[l] = real ? std::size_t(owner[k + l]) << kBits : idle_off;
+      jo[l] = e & ~std::size_t(NeighbourList::kCodeMask);
+      so[l] = (e & NeighbourList::kCodeMask) << 5;
+    }
+    chunk(io, jo, so);
+  }
+  nfar = nf;
+  return {u, wxx, wyy, wzz, wxy, wxz, wyz, nc};
+}
+
 }  // namespace
 
 void ForceField::compute_harmonic_vector(const State& state, const NeighbourList& list,
@@ -319,8 +419,6 @@ void ForceField::compute_harmonic_vector(const State& state, const NeighbourList
   double* fy = fx + n;
   double* fz = fy + n;
   const std::size_t blocks = (n + kBlock - 1) / kBlock;
-  constexpr unsigned kBits = NeighbourList::kCodeBits;
-  constexpr std::uint32_t kZeroShift = 13;  // image code of n = (0, 0, 0)
 
 #pragma omp parallel num_threads(nt)
   {
@@ -341,94 +439,30 @@ void ForceField::compute_harmonic_vector(const State& state, const NeighbourList
     std::fill(pos + 4 * idle, pos + 4 * idle + 4, 0.0);
     std::fill(frc + 4 * idle, frc + 4 * idle + 4, 0.0);
     ContactScratch& cs = scratch_[tid];
-    cs.deferred.clear();
+    const std::uint32_t k0 = start[lo], k1 = start[hi];
+    cs.reserve_far(k1 - k0 + 4);  // at most one deferred force per pair (lane)
+    Deferred* far = cs.far_rows.get();
+    std::size_t nfar = 0;
 #pragma omp barrier  // every row is written before any thread reads its neighbours
 
-    const char* prow = reinterpret_cast<const char*>(pos);
-    const char* srow = reinterpret_cast<const char*>(shift);
-    char* frow = reinterpret_cast<char*>(frc);
-    const std::uint32_t lo_off = std::uint32_t(lo) << kBits, hi_off = std::uint32_t(hi) << kBits;
-    const std::uint32_t idle_off = std::uint32_t(idle) << kBits;
-    const __m256d one = _mm256_set1_pd(1.0), zero = _mm256_setzero_pd();
-    __m256d u = zero, wxx = zero, wyy = zero, wzz = zero, wxy = zero, wxz = zero, wyz = zero;
-    std::size_t nc = 0;
-    const std::uint32_t k0 = start[lo], k1 = start[hi];
-    for (std::uint32_t k = k0; k < k1; k += 4) {
-      std::uint32_t io[4], je[4];
-      if (k + 4 <= k1) {
-        for (int l = 0; l < 4; ++l) {
-          io[l] = owner[k + l] << kBits;
-          je[l] = entries[k + l];
-        }
-      } else {
-        for (int l = 0; l < 4; ++l) {
-          const bool real = k + l < k1;
-          io[l] = real ? owner[k + l] << kBits : idle_off;
-          je[l] = real ? entries[k + l] : idle_off | kZeroShift;
-        }
-      }
-      __m256d qi[4], qj[4];
-      for (int l = 0; l < 4; ++l) {
-        const std::uint32_t jo = je[l] & ~NeighbourList::kCodeMask;
-        const std::uint32_t so = (je[l] & NeighbourList::kCodeMask) << 5;
-        qi[l] = _mm256_load_pd(reinterpret_cast<const double*>(prow + io[l]));
-        // r_ij = x_i - (x_j - h n): subtract the image shift from the partner's row.
-        qj[l] = _mm256_sub_pd(_mm256_load_pd(reinterpret_cast<const double*>(prow + jo)),
-                              _mm256_load_pd(reinterpret_cast<const double*>(srow + so)));
-      }
-      __m256d xi, yi, zi, ai, xj, yj, zj, aj;
-      transpose4(qi, xi, yi, zi, ai);
-      transpose4(qj, xj, yj, zj, aj);
-      const __m256d rx = _mm256_sub_pd(xi, xj), ry = _mm256_sub_pd(yi, yj),
-                    rz = _mm256_sub_pd(zi, zj);
-      const __m256d a = _mm256_add_pd(ai, aj);
-      const __m256d r2 = _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
-      const __mmask8 touch = _mm256_cmp_pd_mask(r2, _mm256_mul_pd(a, a), _CMP_LT_OQ);
-      nc += std::size_t(__builtin_popcount(touch));
-      // HarmonicPair on the touching lanes; the others get harmless 1s and a zero force.
-      const __m256d r = _mm256_sqrt_pd(_mm256_mask_mov_pd(one, touch, r2));
-      const __m256d inv_a = _mm256_div_pd(one, _mm256_mask_mov_pd(one, touch, a));
-      const __m256d delta = _mm256_maskz_mov_pd(touch, _mm256_fnmadd_pd(r, inv_a, one));
-      const __m256d f_over_r = _mm256_div_pd(_mm256_mul_pd(delta, inv_a), r);
-      const __m256d gx = _mm256_mul_pd(f_over_r, rx), gy = _mm256_mul_pd(f_over_r, ry),
-                    gz = _mm256_mul_pd(f_over_r, rz);
-      u = _mm256_fmadd_pd(delta, delta, u);
-      wxx = _mm256_fmadd_pd(rx, gx, wxx);
-      wyy = _mm256_fmadd_pd(ry, gy, wyy);
-      wzz = _mm256_fmadd_pd(rz, gz, wzz);
-      wxy = _mm256_fmadd_pd(rx, gy, wxy);
-      wxz = _mm256_fmadd_pd(rx, gz, wxz);
-      wyz = _mm256_fmadd_pd(ry, gz, wyz);
-      // Back to rows (gx, gy, gz, 0), then Newton's third law.
-      const __m256d s0 = _mm256_unpacklo_pd(gx, gy);    // x0 y0 x2 y2
-      const __m256d s1 = _mm256_unpackhi_pd(gx, gy);    // x1 y1 x3 y3
-      const __m256d s2 = _mm256_unpacklo_pd(gz, zero);  // z0 0 z2 0
-      const __m256d s3 = _mm256_unpackhi_pd(gz, zero);  // z1 0 z3 0
-      const __m256d g[4] = {
-          _mm256_permute2f128_pd(s0, s2, 0x20), _mm256_permute2f128_pd(s1, s3, 0x20),
-          _mm256_permute2f128_pd(s0, s2, 0x31), _mm256_permute2f128_pd(s1, s3, 0x31)};
-      for (int l = 0; l < 4; ++l) {
-        double* fi = reinterpret_cast<double*>(frow + io[l]);
-        _mm256_store_pd(fi, _mm256_add_pd(_mm256_load_pd(fi), g[l]));
-        const std::uint32_t jo = je[l] & ~NeighbourList::kCodeMask;
-        if (jo >= lo_off && jo < hi_off) {
-          double* fj = reinterpret_cast<double*>(frow + jo);
-          _mm256_store_pd(fj, _mm256_sub_pd(_mm256_load_pd(fj), g[l]));
-        } else {
-          alignas(32) double t[4];
-          _mm256_store_pd(t, g[l]);
-          cs.deferred.push_back({jo >> kBits, -t[0], -t[1], -t[2]});
-        }
-      }
+    VectorSums sums;
+    if (nthr == 1) {
+      sums = vector_pairs<false>(pos, shift, frc, owner, entries, k0, k1, lo, hi, idle, far, nfar);
+    } else {
+      sums = vector_pairs<true>(pos, shift, frc, owner, entries, k0, k1, lo, hi, idle, far, nfar);
     }
+    const __m256d u = sums.u;
     energy[tid] = 0.5 * lane_sum(u);
-    vir[tid] << lane_sum(wxx), lane_sum(wyy), lane_sum(wzz), lane_sum(wxy), lane_sum(wxz),
-        lane_sum(wyz);
-    contacts[tid] = nc;
+    vir[tid] << lane_sum(sums.wxx), lane_sum(sums.wyy), lane_sum(sums.wzz), lane_sum(sums.wxy),
+        lane_sum(sums.wxz), lane_sum(sums.wyz);
+    contacts[tid] = sums.contacts;
+    cs.far = nfar;
     if (nthr > 1) {
 #pragma omp barrier
       for (int t = 0; t < nthr; ++t) {
-        for (const Deferred& df : scratch_[t].deferred) {
+        const ContactScratch& other = scratch_[t];
+        for (std::size_t q = 0; q < other.far; ++q) {
+          const Deferred& df = other.far_rows[q];
           if (df.j >= lo && df.j < hi) {  // padding lanes (idle rows) belong to no range
             frc[4 * df.j] += df.fx;
             frc[4 * df.j + 1] += df.fy;

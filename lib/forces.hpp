@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "lib/neighbour_list.hpp"
@@ -19,6 +20,12 @@ struct ForceResult {
   Eigen::Matrix3d virial = Eigen::Matrix3d::Zero();
   std::size_t contacts = 0;
   double force_squared = 0.0;  // sum_i |F_i|^2 (the dissipation times xi_s)
+};
+
+// A pair force on a particle owned by another thread (see ForceField::compute_impl).
+struct DeferredForce {
+  std::uint32_t j;
+  double fx, fy, fz;
 };
 
 class ForceField {
@@ -55,16 +62,23 @@ class ForceField {
   void hessian_impl(const Pair& pair, const State& state, const NeighbourList& list,
                     const double* v, double* out) const;
 
-  // A pair force on a particle owned by another thread (see compute_impl).
-  struct Deferred {
-    std::uint32_t j;
-    double fx, fy, fz;
-  };
+  using Deferred = DeferredForce;
   // Contacts of one block of particles (see compute_impl), per thread.
   struct ContactScratch {
     std::vector<std::uint32_t> i, j;
     std::vector<double> rx, ry, rz, r2, a;
     std::vector<Deferred> deferred;
+    // The vector kernel's deferred forces: a plain buffer, so that no call (which would spill
+    // the vector accumulators) sits in its pair loop. Holds `far` entries.
+    std::unique_ptr<Deferred[]> far_rows;
+    std::size_t far_capacity = 0, far = 0;
+    void reserve_far(std::size_t m) {
+      if (far_capacity < m) {
+        far_rows = std::make_unique_for_overwrite<Deferred[]>(m);
+        far_capacity = m;
+      }
+      far = 0;
+    }
     void resize(std::size_t m) {
       if (i.size() >= m)
         return;

@@ -197,6 +197,8 @@ TEST(NeighbourList, MatchesAllPairsThroughShearAndRemaps) {
     EXPECT_GT(m.state().box.strain, 1.5);
     EXPECT_GE(m.state().box.flips, 1);  // went through at least one remap
     EXPECT_GT(m.list_builds(), 3u);
+    // The inner list was re-selected between full builds, too.
+    EXPECT_GT(m.neighbour_list().inner_builds(), m.list_builds());
     EXPECT_EQ(checks, 16);
   }
 }
@@ -232,6 +234,102 @@ TEST(Forces, ThreadCountChangesOnlyRoundOff) {
   for (std::size_t k = 0; k < a.forces.force.size(); ++k) {
     ASSERT_NEAR(a.forces.force[k], b.forces.force[k], 1e-12);
   }
+}
+
+// The AVX-512 kernel (alpha_r = 2) against the portable blocked kernel on the same list, on a
+// sheared state with unwrapped coordinates, on one and two threads (two threads: many pairs
+// cross a range boundary, and the last chunk of each range is partial).
+TEST(Forces, VectorKernelMatchesPortableKernel) {
+  for (std::size_t n : {100u, 300u, 2000u}) {
+    Model m(random_state(n, 0.64, 21), ModelOptions{2.0, 0.3, 2, 0});
+    Euler(0.1).advance(m, ConstantVolume(1e-2), 30.0);  // strain 0.3, unwrapped positions
+    const State& s = m.state();
+    NeighbourList list(0.3);
+    list.build(s);
+    for (int threads : {1, 2}) {
+      ForceField fast(2.0, threads), plain(2.0, threads);
+      plain.use_portable_kernel(true);
+      if (!fast.vector_kernel(s.size()))
+        GTEST_SKIP() << "built without AVX-512VL: only the portable kernel exists";
+      ASSERT_FALSE(plain.vector_kernel(s.size()));
+      ForceResult a, b;
+      fast.compute(s, list, a);
+      plain.compute(s, list, b);
+      ASSERT_GT(b.contacts, s.size());
+      EXPECT_EQ(a.contacts, b.contacts);
+      // Real-space rows against scaled differences: the pair vectors differ in the last bits
+      // (|r| ~ 1, positions up to ~20): 1e-13 absolute on forces of order 1e-2.
+      for (std::size_t k = 0; k < a.force.size(); ++k)
+        ASSERT_NEAR(a.force[k], b.force[k], 1e-13) << "n " << n << " threads " << threads;
+      EXPECT_NEAR(a.energy, b.energy, 1e-12 * b.energy);
+      EXPECT_NEAR(a.force_squared, b.force_squared, 1e-11 * b.force_squared);
+      const double scale = b.virial.cwiseAbs().maxCoeff();
+      EXPECT_LT((a.virial - b.virial).cwiseAbs().maxCoeff(), 1e-12 * scale);
+    }
+  }
+}
+
+// Moves particle i by dr in real space.
+void displace(State& s, std::size_t i, const Eigen::Vector3d& dr) {
+  const Eigen::Vector3d ds = s.box.h_inv() * dr;
+  s.x()[i] += ds[0];
+  s.y()[i] += ds[1];
+  s.z()[i] += ds[2];
+}
+
+// The inner list's bound: valid while the largest displacement is below inner_skin / 2, then
+// re-selected from the outer list while the outer one still has the margin, then a full
+// build. A pair that was outside the inner list and is then pushed into contact is found.
+TEST(NeighbourList, InnerListIsRefreshedBeforeAContactIsMissed) {
+  State s = random_state(400, 0.60, 8);
+  NeighbourList list(0.3);
+  list.build(s);
+  ASSERT_DOUBLE_EQ(list.inner_skin(), 0.05);
+  ASSERT_LT(list.inner_pairs(), list.pairs());
+  // An outer pair with a gap between 0.06 and 0.10, so not in the inner list.
+  const Eigen::Matrix3d h = s.box.h();
+  std::size_t pi = 0, pj = 0;
+  Eigen::Vector3d rij = Eigen::Vector3d::Zero();
+  double gap = 0.0;
+  for (std::size_t i = 0; i < s.size() && gap == 0.0; ++i) {
+    for (std::uint32_t k = list.start()[i]; k < list.start()[i + 1]; ++k) {
+      const std::uint32_t e = list.entries()[k];
+      const std::uint32_t j = e >> NeighbourList::kCodeBits;
+      const auto& sh = NeighbourList::shifts()[e & NeighbourList::kCodeMask];
+      const Eigen::Vector3d r =
+          h * (s.scaled(i) - s.scaled(j) + Eigen::Vector3d(sh[0], sh[1], sh[2]));
+      const double g = r.norm() - 0.5 * (s.diameter[i] + s.diameter[j]);
+      if (g > 0.06 && g < 0.10) {
+        pi = i, pj = j, rij = r, gap = g;
+        break;
+      }
+    }
+  }
+  ASSERT_GT(gap, 0.0);
+  for (std::uint32_t k = list.inner_start()[pi]; k < list.inner_start()[pi + 1]; ++k)
+    ASSERT_NE(list.inner_entries()[k] >> NeighbourList::kCodeBits, pj);
+  const Eigen::Vector3d toward = -rij.normalized();  // moves i toward j
+
+  State t = s;
+  displace(t, pi, 0.02 * toward);  // 2 x 0.02 < 0.05: nothing can have closed the gap
+  EXPECT_EQ(list.status(t), NeighbourList::Status::kValid);
+  displace(t, pi, (gap + 0.01 - 0.02) * toward);  // now overlapping j by 0.01
+  // 2 x (gap + 0.01) is above 0.05 but below 0.3 - 0.05: re-select, no full build.
+  ForceField ff(2.0, 1);
+  ForceResult ref;
+  ff.compute_all_pairs(t, ref);
+  ASSERT_EQ(list.status(t), NeighbourList::Status::kInnerStale);
+  list.refresh_inner(t);
+  EXPECT_EQ(list.status(t), NeighbourList::Status::kValid);
+  ForceResult got;
+  ff.compute(t, list, got);
+  EXPECT_EQ(got.contacts, ref.contacts);
+  for (std::size_t k = 0; k < ref.force.size(); ++k)
+    ASSERT_NEAR(got.force[k], ref.force[k], 1e-12);
+
+  // Over 0.2 in all: the outer list no longer has the margin 0.05 (0.3 - 2 x 0.2 < 0.05).
+  displace(t, pi, 0.2 * toward.unitOrthogonal());
+  EXPECT_EQ(list.status(t), NeighbourList::Status::kStale);
 }
 
 TEST(State, WrapKeepsUnwrappedCoordinates) {
