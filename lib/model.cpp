@@ -33,11 +33,11 @@ void Model::refresh_list() {
     case NeighbourList::Status::kValid:
       return;
     case NeighbourList::Status::kInnerStale:
-      list_.refresh_inner(state_);
+      list_.refresh_inner(state_, field_.threads());
       return;
     case NeighbourList::Status::kStale:
       state_.wrap();
-      list_.build(state_);
+      list_.build(state_, field_.threads());
       return;
   }
 }

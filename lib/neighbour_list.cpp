@@ -1,6 +1,8 @@
 // Verlet neighbour list from cell lists; see neighbour_list.hpp for the validity bound.
 #include "lib/neighbour_list.hpp"
 
+#include <omp.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -36,6 +38,35 @@ Eigen::Vector3i bins_for(const Box& box, double reach) {
   return n;
 }
 
+// Fills a CSR list row by row: row(i, out) appends the entries of row i to out. Threads take
+// contiguous ranges of rows into their own buffers, joined in order afterwards, so the result
+// does not depend on the thread count.
+template <class Row>
+void fill_rows(std::size_t n, int threads, std::vector<std::uint32_t>& start,
+               std::vector<std::uint32_t>& entries, const Row& row) {
+  start.assign(n + 1, 0);
+  const int nt = std::max(1, std::min(threads, int(n / 1024) + 1));  // small n: one thread
+  std::vector<std::vector<std::uint32_t>> parts(nt);
+#pragma omp parallel num_threads(nt) if (nt > 1)
+  {
+    const std::size_t t = std::size_t(omp_get_thread_num());
+    const std::size_t m = std::size_t(omp_get_num_threads());
+    const std::size_t lo = n * t / m, hi = n * (t + 1) / m;
+    std::vector<std::uint32_t>& out = parts[t];
+    out.reserve(8 * (hi - lo));
+    for (std::size_t i = lo; i < hi; ++i) {
+      const std::size_t before = out.size();
+      row(i, out);
+      start[i + 1] = static_cast<std::uint32_t>(out.size() - before);
+    }
+  }
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  entries.clear();
+  entries.reserve(start[n]);
+  for (const auto& part : parts)
+    entries.insert(entries.end(), part.begin(), part.end());
+}
+
 }  // namespace
 
 const std::array<std::array<double, 3>, 27>& NeighbourList::shifts() {
@@ -67,7 +98,7 @@ void NeighbourList::set_skin(double skin) {
   built_ = false;
 }
 
-void NeighbourList::build(const State& state) {
+void NeighbourList::build(const State& state, int threads) {
   const std::size_t n = state.size();
   if (n > kMaxParticles)
     throw ConfigError("N = " + std::to_string(n) + " exceeds the list limit");
@@ -118,21 +149,20 @@ void NeighbourList::build(const State& state) {
     const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
     const double t = state.box.tilt();
     const double* d = state.diameter.data();
-    std::vector<std::uint32_t> neigh_cells;
-    neigh_cells.reserve(27);
-    for (std::size_t i = 0; i < n; ++i) {
+    fill_rows(n, threads, start_, entries_, [&](std::size_t i, std::vector<std::uint32_t>& out) {
       const int c = int(cell_of[i]);
       const int cz = c % nb[2], cy = (c / nb[2]) % nb[1], cx = c / (nb[2] * nb[1]);
       // Scaled coordinates are periodic in the unit cube whatever the tilt (the Lees–Edwards
       // offset lives in h), so the 27 surrounding bins hold every partner within reach.
-      neigh_cells.clear();
+      std::array<std::uint32_t, 27> neigh_cells;
+      int nc = 0;
       for (int dx = -1; dx <= 1; ++dx) {
         const int xw = (cx + dx + nb[0]) % nb[0];
         for (int dy = -1; dy <= 1; ++dy) {
           const int yw = (cy + dy + nb[1]) % nb[1];
           for (int dz = -1; dz <= 1; ++dz) {
             const int zw = (cz + dz + nb[2]) % nb[2];
-            neigh_cells.push_back(std::uint32_t((xw * nb[1] + yw) * nb[2] + zw));
+            neigh_cells[nc++] = std::uint32_t((xw * nb[1] + yw) * nb[2] + zw);
           }
         }
       }
@@ -145,23 +175,21 @@ void NeighbourList::build(const State& state) {
           const std::uint32_t code = image_code(dx, dy, dz, t);
           const double rx = hxx * dx + hxy * dy, ry = hyy * dy, rz = hzz * dz;
           const double cut = 0.5 * (d[i] + d[j]) + skin_;
-          if (rx * rx + ry * ry + rz * rz < cut * cut) {
-            entries_.push_back((j << kCodeBits) | code);
-          }
+          if (rx * rx + ry * ry + rz * rz < cut * cut)
+            out.push_back((j << kCodeBits) | code);
         }
       }
-      start_[i + 1] = static_cast<std::uint32_t>(entries_.size());
-    }
+    });
   }
 
   ref_pos_ = state.pos;
   h_ref_inv_ = state.box.h_inv();
   built_ = true;
   ++builds_;
-  refresh_inner(state);
+  refresh_inner(state, threads);
 }
 
-void NeighbourList::refresh_inner(const State& state) {
+void NeighbourList::refresh_inner(const State& state, int threads) {
   const std::size_t n = state.size();
   const Eigen::Matrix3d h = state.box.h();
   const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
@@ -170,26 +198,26 @@ void NeighbourList::refresh_inner(const State& state) {
   const double* sz = state.z();
   const double* d = state.diameter.data();
   const auto& shift = shifts();
-  inner_start_.assign(n + 1, 0);
-  inner_entries_.clear();
-  inner_owner_.clear();
+  fill_rows(n, threads, inner_start_, inner_entries_,
+            [&](std::size_t i, std::vector<std::uint32_t>& out) {
+              for (std::uint32_t k = start_[i]; k < start_[i + 1]; ++k) {
+                const std::uint32_t e = entries_[k];
+                const std::uint32_t j = e >> kCodeBits;
+                const auto& sh = shift[e & kCodeMask];
+                const double dx = sx[i] - sx[j] + sh[0];
+                const double dy = sy[i] - sy[j] + sh[1];
+                const double dz = sz[i] - sz[j] + sh[2];
+                const double rx = hxx * dx + hxy * dy, ry = hyy * dy, rz = hzz * dz;
+                const double cut = 0.5 * (d[i] + d[j]) + inner_skin_;
+                if (rx * rx + ry * ry + rz * rz < cut * cut)
+                  out.push_back(e);
+              }
+            });
+  inner_owner_.resize(inner_entries_.size());
   max_row_ = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    for (std::uint32_t k = start_[i]; k < start_[i + 1]; ++k) {
-      const std::uint32_t e = entries_[k];
-      const std::uint32_t j = e >> kCodeBits;
-      const auto& sh = shift[e & kCodeMask];
-      const double dx = sx[i] - sx[j] + sh[0];
-      const double dy = sy[i] - sy[j] + sh[1];
-      const double dz = sz[i] - sz[j] + sh[2];
-      const double rx = hxx * dx + hxy * dy, ry = hyy * dy, rz = hzz * dz;
-      const double cut = 0.5 * (d[i] + d[j]) + inner_skin_;
-      if (rx * rx + ry * ry + rz * rz < cut * cut) {
-        inner_entries_.push_back(e);
-        inner_owner_.push_back(std::uint32_t(i));
-      }
-    }
-    inner_start_[i + 1] = static_cast<std::uint32_t>(inner_entries_.size());
+    std::fill(inner_owner_.begin() + inner_start_[i], inner_owner_.begin() + inner_start_[i + 1],
+              std::uint32_t(i));
     max_row_ = std::max<std::size_t>(max_row_, inner_start_[i + 1] - inner_start_[i]);
   }
   inner_ref_pos_ = state.pos;

@@ -41,8 +41,9 @@ class NeighbourList {
   double inner_skin() const { return inner_skin_; }
   void set_skin(double skin);
 
-  // Builds both lists. The state must be wrapped (scaled coordinates in [0, 1)).
-  void build(const State& state);
+  // Builds both lists. The state must be wrapped (scaled coordinates in [0, 1)). The lists do
+  // not depend on the number of threads.
+  void build(const State& state, int threads = 1);
 
   enum class Status {
     kValid,       // the inner list holds every pair in contact
@@ -55,7 +56,7 @@ class NeighbourList {
     return status(state, threads) == Status::kValid;
   }
   // Re-selects the inner list from the outer one; only after status() said kInnerStale.
-  void refresh_inner(const State& state);
+  void refresh_inner(const State& state, int threads = 1);
   void invalidate() { built_ = false; }
 
   // Outer list, CSR by i: all pairs within a_ij + skin at the last build.

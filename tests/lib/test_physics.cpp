@@ -269,6 +269,21 @@ TEST(Forces, VectorKernelMatchesPortableKernel) {
   }
 }
 
+// Rows are filled by several threads into separate buffers and joined: same lists.
+TEST(NeighbourList, ThreadCountDoesNotChangeTheLists) {
+  State s = random_state(5000, 0.64, 3);
+  NeighbourList one(0.3), two(0.3);
+  one.build(s, 1);
+  two.build(s, 2);
+  EXPECT_EQ(one.start(), two.start());
+  EXPECT_EQ(one.entries(), two.entries());
+  EXPECT_EQ(one.inner_start(), two.inner_start());
+  EXPECT_EQ(one.inner_entries(), two.inner_entries());
+  EXPECT_EQ(one.inner_owner(), two.inner_owner());
+  EXPECT_EQ(one.max_row(), two.max_row());
+  EXPECT_GT(one.inner_pairs(), s.size());
+}
+
 // Moves particle i by dr in real space.
 void displace(State& s, std::size_t i, const Eigen::Vector3d& dr) {
   const Eigen::Vector3d ds = s.box.h_inv() * dr;
