@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 
 #if defined(__AVX512F__) && defined(__AVX512VL__)
@@ -76,6 +77,38 @@ std::size_t first_block(const std::uint32_t* start, std::size_t n, std::size_t b
   return lo_b;
 }
 
+// Largest squared displacement of particles [lo, hi) since the reference `q` (SoA scaled, as
+// State::pos), in real space of the current cell; NaN if a position is not finite.
+double max_drift2(const State& state, const double* q, std::size_t lo, std::size_t hi) {
+  const std::size_t n = state.size();
+  const Eigen::Matrix3d h = state.box.h();
+  const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
+  const double* p = state.pos.data();
+  double m = 0.0, sum = 0.0;
+#pragma omp simd reduction(max : m) reduction(+ : sum)
+  for (std::size_t i = lo; i < hi; ++i) {
+    const double ux = p[i] - q[i], uy = p[n + i] - q[n + i], uz = p[2 * n + i] - q[2 * n + i];
+    const double rx = hxx * ux + hxy * uy, ry = hyy * uy, rz = hzz * uz;
+    const double d2 = rx * rx + ry * ry + rz * rz;
+    m = d2 > m ? d2 : m;
+    sum += d2;  // a NaN never wins the max, but it poisons the sum
+  }
+  return std::isfinite(sum) ? m : std::nan("");
+}
+
+// Combines the per-thread maxima (NaN wins).
+double combine_drift2(const std::vector<double>& per_thread, bool have_ref) {
+  if (!have_ref)
+    return std::numeric_limits<double>::infinity();
+  double m = 0.0;
+  for (double x : per_thread) {
+    if (std::isnan(x))
+      return x;
+    m = std::max(m, x);
+  }
+  return m;
+}
+
 // 64-byte aligned view of a vector of at least `count` doubles.
 [[maybe_unused]] double* aligned_rows(std::vector<double>& v, std::size_t count) {
   if (v.size() < count + 8)
@@ -111,6 +144,9 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
   std::vector<Eigen::Matrix<double, 6, 1>> vir(nt, Eigen::Matrix<double, 6, 1>::Zero());
   std::vector<std::size_t> contacts(nt, 0);
   std::vector<double> squared(nt, 0.0);
+  const bool have_ref = list.inner_reference().size() == state.pos.size();
+  const double* ref = list.inner_reference().data();
+  std::vector<double> drift2(nt, 0.0);
 
   double* fx = out.force.data();
   double* fy = fx + n;
@@ -129,6 +165,8 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
     const std::size_t b0 = first_block(start, n, blocks, tid, nthr);
     const std::size_t b1 = first_block(start, n, blocks, tid + 1, nthr);
     const std::size_t lo = std::min(n, b0 * kBlock), hi = std::min(n, b1 * kBlock);
+    if (have_ref)
+      drift2[tid] = max_drift2(state, ref, lo, hi);
     std::fill(fx + lo, fx + hi, 0.0);
     std::fill(fy + lo, fy + hi, 0.0);
     std::fill(fz + lo, fz + hi, 0.0);
@@ -249,6 +287,7 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
     out.contacts += contacts[t];
     out.force_squared += squared[t];
   }
+  out.max_drift2 = combine_drift2(drift2, have_ref);
   // Central forces: the virial is symmetric.
   out.virial << w[0], w[3], w[4], w[3], w[1], w[5], w[4], w[5], w[2];
 }
@@ -415,6 +454,9 @@ void ForceField::compute_harmonic_vector(const State& state, const NeighbourList
   std::vector<Eigen::Matrix<double, 6, 1>> vir(nt, Eigen::Matrix<double, 6, 1>::Zero());
   std::vector<std::size_t> contacts(nt, 0);
   std::vector<double> squared(nt, 0.0);
+  const bool have_ref = list.inner_reference().size() == state.pos.size();
+  const double* ref = list.inner_reference().data();
+  std::vector<double> drift2(nt, 0.0);
   double* fx = out.force.data();
   double* fy = fx + n;
   double* fz = fy + n;
@@ -434,6 +476,8 @@ void ForceField::compute_harmonic_vector(const State& state, const NeighbourList
       pos[4 * i + 2] = hzz * sz[i];
       pos[4 * i + 3] = 0.5 * d[i];
     }
+    if (have_ref)
+      drift2[tid] = max_drift2(state, ref, lo, hi);
     std::fill(frc + 4 * lo, frc + 4 * hi, 0.0);
     // The idle row: radius 0 at the origin, so a padding pair (idle, idle) never touches.
     std::fill(pos + 4 * idle, pos + 4 * idle + 4, 0.0);
@@ -491,6 +535,7 @@ void ForceField::compute_harmonic_vector(const State& state, const NeighbourList
     out.contacts += contacts[t];
     out.force_squared += squared[t];
   }
+  out.max_drift2 = combine_drift2(drift2, have_ref);
   out.virial << w[0], w[3], w[4], w[3], w[1], w[5], w[4], w[5], w[2];
 }
 #else
@@ -535,6 +580,7 @@ void ForceField::compute_all_pairs(const State& state, ForceResult& out) const {
   out.force_squared = 0.0;
   for (double f : out.force)
     out.force_squared += f * f;
+  out.max_drift2 = std::numeric_limits<double>::infinity();  // no list, no reference
 }
 
 void ForceField::hessian_product(const State& state, const NeighbourList& list, const double* v,

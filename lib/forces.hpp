@@ -20,6 +20,10 @@ struct ForceResult {
   Eigen::Matrix3d virial = Eigen::Matrix3d::Zero();
   std::size_t contacts = 0;
   double force_squared = 0.0;  // sum_i |F_i|^2 (the dissipation times xi_s)
+  // Largest squared displacement since the list's inner reference (real space, current cell),
+  // taken in the same pass so that checking the list costs no pass of its own; infinite
+  // when the list has no reference for this state.
+  double max_drift2 = 0.0;
 };
 
 // A pair force on a particle owned by another thread (see ForceField::compute_impl).

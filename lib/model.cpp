@@ -45,8 +45,15 @@ void Model::refresh_list() {
 const Evaluation& Model::evaluate() {
   if (fresh_)
     return eval_;
-  refresh_list();
+  // The force pass also measures the largest displacement since the inner list was selected;
+  // in the rare step where the list no longer holds, it is renewed and the pass repeated.
+  if (!list_.built() || list_.inner_reference().size() != state_.pos.size())
+    refresh_list();
   field_.compute(state_, list_, eval_.forces);
+  if (!list_.inner_holds(state_, std::sqrt(eval_.forces.max_drift2))) {
+    refresh_list();
+    field_.compute(state_, list_, eval_.forces);
+  }
   ++evaluations_;
   const double v = state_.box.volume();
   const Eigen::Matrix3d& w = eval_.forces.virial;

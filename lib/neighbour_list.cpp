@@ -282,6 +282,17 @@ bool NeighbourList::holds(const Drift& d, double skin, double margin) const {
   return true;
 }
 
+bool NeighbourList::inner_holds(const State& state, double max_drift) const {
+  if (!built_ || inner_ref_pos_.size() != state.pos.size() || !std::isfinite(max_drift))
+    return false;
+  const Eigen::Matrix3d m = state.box.h() * inner_h_ref_inv_;
+  const double sigma_min = std::sqrt(std::max(
+      0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(m.transpose() * m, Eigen::EigenvaluesOnly)
+               .eigenvalues()
+               .minCoeff()));
+  return holds({max_drift, sigma_min}, inner_skin_, 0.0);
+}
+
 NeighbourList::Status NeighbourList::status(const State& state, int threads) const {
   if (!built_ || ref_pos_.size() != state.pos.size())
     return Status::kStale;

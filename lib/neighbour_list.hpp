@@ -55,6 +55,11 @@ class NeighbourList {
   bool valid(const State& state, int threads = 1) const {
     return status(state, threads) == Status::kValid;
   }
+  // The inner bound for a known largest displacement since inner_reference() (e.g. measured
+  // by the force pass); false also for a non-finite one, or when never built.
+  bool inner_holds(const State& state, double max_drift) const;
+  const std::vector<double>& inner_reference() const { return inner_ref_pos_; }
+  bool built() const { return built_; }
   // Re-selects the inner list from the outer one; only after status() said kInnerStale.
   void refresh_inner(const State& state, int threads = 1);
   void invalidate() { built_ = false; }

@@ -328,6 +328,19 @@ TEST(NeighbourList, InnerListIsRefreshedBeforeAContactIsMissed) {
   State t = s;
   displace(t, pi, 0.02 * toward);  // 2 x 0.02 < 0.05: nothing can have closed the gap
   EXPECT_EQ(list.status(t), NeighbourList::Status::kValid);
+  {  // the force pass measures the same displacement, for Model's per-step check
+    for (int threads : {1, 2}) {
+      for (bool portable : {false, true}) {
+        ForceField ff(2.0, threads);
+        ff.use_portable_kernel(portable);
+        ForceResult r;
+        ff.compute(t, list, r);
+        EXPECT_NEAR(r.max_drift2, 0.02 * 0.02, 1e-14);
+        EXPECT_TRUE(list.inner_holds(t, std::sqrt(r.max_drift2)));
+        EXPECT_FALSE(list.inner_holds(t, 0.026));
+      }
+    }
+  }
   displace(t, pi, (gap + 0.01 - 0.02) * toward);  // now overlapping j by 0.01
   // 2 x (gap + 0.01) is above 0.05 but below 0.3 - 0.05: re-select, no full build.
   ForceField ff(2.0, 1);
@@ -345,6 +358,16 @@ TEST(NeighbourList, InnerListIsRefreshedBeforeAContactIsMissed) {
   // Over 0.2 in all: the outer list no longer has the margin 0.05 (0.3 - 2 x 0.2 < 0.05).
   displace(t, pi, 0.2 * toward.unitOrthogonal());
   EXPECT_EQ(list.status(t), NeighbourList::Status::kStale);
+}
+
+// A non-finite position is reported as such, not hidden by the list check.
+TEST(Model, NonFinitePositionIsAnError) {
+  State s = random_state(300, 0.6, 5);
+  Model m(s, ModelOptions{2.0, 0.3, 2, 0});
+  m.evaluate();
+  m.mutable_state().y()[17] = std::nan("");
+  m.touch();
+  EXPECT_THROW(m.evaluate(), IntegrationError);
 }
 
 TEST(State, WrapKeepsUnwrappedCoordinates) {
