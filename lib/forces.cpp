@@ -96,18 +96,38 @@ double max_drift2(const State& state, const double* q, std::size_t lo, std::size
   return std::isfinite(sum) ? m : std::nan("");
 }
 
-// Combines the per-thread maxima (NaN wins).
-double combine_drift2(const std::vector<double>& per_thread, bool have_ref) {
-  if (!have_ref)
-    return std::numeric_limits<double>::infinity();
-  double m = 0.0;
-  for (double x : per_thread) {
-    if (std::isnan(x))
-      return x;
-    m = std::max(m, x);
+// Per-thread partial sums of a force pass, reduced in thread order so that one thread count
+// is deterministic.
+struct ThreadSums {
+  explicit ThreadSums(int nt)
+      : energy(nt, 0.0),
+        virial(nt, Eigen::Matrix<double, 6, 1>::Zero()),
+        contacts(nt, 0),
+        squared(nt, 0.0),
+        drift2(nt, 0.0) {}
+  std::vector<double> energy;
+  std::vector<Eigen::Matrix<double, 6, 1>> virial;  // xx yy zz xy xz yz
+  std::vector<std::size_t> contacts;
+  std::vector<double> squared, drift2;
+
+  void finish(ForceResult& out, bool have_ref) const {
+    out.energy = 0.0;
+    out.contacts = 0;
+    out.force_squared = 0.0;
+    out.max_drift2 = have_ref ? 0.0 : std::numeric_limits<double>::infinity();
+    Eigen::Matrix<double, 6, 1> w = Eigen::Matrix<double, 6, 1>::Zero();
+    for (std::size_t t = 0; t < energy.size(); ++t) {
+      out.energy += energy[t];
+      w += virial[t];
+      out.contacts += contacts[t];
+      out.force_squared += squared[t];
+      if (have_ref && !std::isnan(out.max_drift2))  // NaN wins
+        out.max_drift2 = std::isnan(drift2[t]) ? drift2[t] : std::max(out.max_drift2, drift2[t]);
+    }
+    // Central forces: the virial is symmetric.
+    out.virial << w[0], w[3], w[4], w[3], w[1], w[5], w[4], w[5], w[2];
   }
-  return m;
-}
+};
 
 // 64-byte aligned view of a vector of at least `count` doubles.
 [[maybe_unused]] double* aligned_rows(std::vector<double>& v, std::size_t count) {
@@ -139,14 +159,10 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
   const auto& shift = NeighbourList::shifts();
   const std::size_t capacity = kBlock * std::max<std::size_t>(1, list.max_row());
 
-  // Per-thread partial sums, reduced in thread order so one thread count is deterministic.
-  std::vector<double> energy(nt, 0.0);
-  std::vector<Eigen::Matrix<double, 6, 1>> vir(nt, Eigen::Matrix<double, 6, 1>::Zero());
-  std::vector<std::size_t> contacts(nt, 0);
-  std::vector<double> squared(nt, 0.0);
+  ThreadSums sums(nt);
+  auto& [energy, vir, contacts, squared, drift2] = sums;
   const bool have_ref = list.inner_reference().size() == state.pos.size();
   const double* ref = list.inner_reference().data();
-  std::vector<double> drift2(nt, 0.0);
 
   double* fx = out.force.data();
   double* fy = fx + n;
@@ -277,19 +293,7 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
     squared[tid] = f2;
   }
 
-  out.energy = 0.0;
-  out.contacts = 0;
-  out.force_squared = 0.0;
-  Eigen::Matrix<double, 6, 1> w = Eigen::Matrix<double, 6, 1>::Zero();
-  for (int t = 0; t < nt; ++t) {
-    out.energy += energy[t];
-    w += vir[t];
-    out.contacts += contacts[t];
-    out.force_squared += squared[t];
-  }
-  out.max_drift2 = combine_drift2(drift2, have_ref);
-  // Central forces: the virial is symmetric.
-  out.virial << w[0], w[3], w[4], w[3], w[1], w[5], w[4], w[5], w[2];
+  sums.finish(out, have_ref);
 }
 
 // The vector kernel (alpha_r = 2, AVX-512VL). It walks the inner list as flat pairs, four at a
@@ -450,13 +454,10 @@ void ForceField::compute_harmonic_vector(const State& state, const NeighbourList
   const std::uint32_t* entries = list.inner_entries().data();
   const std::uint32_t* owner = list.inner_owner().data();
 
-  std::vector<double> energy(nt, 0.0);
-  std::vector<Eigen::Matrix<double, 6, 1>> vir(nt, Eigen::Matrix<double, 6, 1>::Zero());
-  std::vector<std::size_t> contacts(nt, 0);
-  std::vector<double> squared(nt, 0.0);
+  ThreadSums sums(nt);
+  auto& [energy, vir, contacts, squared, drift2] = sums;
   const bool have_ref = list.inner_reference().size() == state.pos.size();
   const double* ref = list.inner_reference().data();
-  std::vector<double> drift2(nt, 0.0);
   double* fx = out.force.data();
   double* fy = fx + n;
   double* fz = fy + n;
@@ -525,18 +526,7 @@ void ForceField::compute_harmonic_vector(const State& state, const NeighbourList
     squared[tid] = f2;
   }
 
-  out.energy = 0.0;
-  out.contacts = 0;
-  out.force_squared = 0.0;
-  Eigen::Matrix<double, 6, 1> w = Eigen::Matrix<double, 6, 1>::Zero();
-  for (int t = 0; t < nt; ++t) {
-    out.energy += energy[t];
-    w += vir[t];
-    out.contacts += contacts[t];
-    out.force_squared += squared[t];
-  }
-  out.max_drift2 = combine_drift2(drift2, have_ref);
-  out.virial << w[0], w[3], w[4], w[3], w[1], w[5], w[4], w[5], w[2];
+  sums.finish(out, have_ref);
 }
 #else
 void ForceField::compute_harmonic_vector(const State& state, const NeighbourList& list,
