@@ -346,10 +346,6 @@ VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
   const __m256d one = _mm256_set1_pd(1.0), zero = _mm256_setzero_pd();
   __m256d u = zero, wxx = zero, wyy = zero, wzz = zero, wxy = zero, wxz = zero, wyz = zero;
   std::size_t nc = 0, nf = nfar;
-  alignas(32) double scratch[16] = {};
-  static constexpr double keep[2] = {1.0, 0.0};  // acc is kept (same owner) or restarted
-  std::size_t cur = k0 < k1 ? std::size_t(owner[k0]) << kBits : idle_off;
-  __m256d acc = zero;
   const auto chunk = [&](const std::size_t* io, const std::size_t* jo, const std::size_t* so) {
     __m256d qi[4], qj[4];
     for (int l = 0; l < 4; ++l) {
@@ -390,15 +386,8 @@ VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
         _mm256_permute2f128_pd(s0, s2, 0x20), _mm256_permute2f128_pd(s1, s3, 0x20),
         _mm256_permute2f128_pd(s0, s2, 0x31), _mm256_permute2f128_pd(s1, s3, 0x31)};
     for (int l = 0; l < 4; ++l) {
-      // The owner's share: pairs of one particle are consecutive, so its forces are summed in
-      // `acc` and added to its row once, when the owner changes. Adding per pair made a chain
-      // of dependent loads and stores through the same row. Without a change the add goes to
-      // a scratch row, so there is no branch.
-      const bool fresh = io[l] != cur;
-      double* dst = fresh ? reinterpret_cast<double*>(frow + cur) : scratch + 4 * l;
-      _mm256_store_pd(dst, _mm256_add_pd(_mm256_load_pd(dst), acc));
-      acc = _mm256_fmadd_pd(acc, _mm256_broadcast_sd(keep + int(fresh)), g[l]);
-      cur = io[l];
+      double* fi = reinterpret_cast<double*>(frow + io[l]);
+      _mm256_store_pd(fi, _mm256_add_pd(_mm256_load_pd(fi), g[l]));
       if (!Shared || jo[l] - lo_off < span || jo[l] == idle_off) {
         double* fj = reinterpret_cast<double*>(frow + jo[l]);
         _mm256_store_pd(fj, _mm256_sub_pd(_mm256_load_pd(fj), g[l]));
@@ -430,8 +419,6 @@ VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
     }
     chunk(io, jo, so);
   }
-  double* last = reinterpret_cast<double*>(frow + cur);
-  _mm256_store_pd(last, _mm256_add_pd(_mm256_load_pd(last), acc));
   nfar = nf;
   return {u, wxx, wyy, wzz, wxy, wxz, wyz, nc};
 }
