@@ -325,7 +325,7 @@ State read_xyz(const std::string& path) {
       p.fail(line_no, "expected " + std::to_string(columns.size()) + " columns (Properties=" +
                           *properties_text + "), got " + std::to_string(tokens.size()));
     }
-    Eigen::Vector3d r;
+    Eigen::Vector3d r = Eigen::Vector3d::Zero();  // every column is set (checked above)
     double radius = 0.0;
     for (std::size_t c = 0; c < columns.size(); ++c) {
       const Column& col = columns[c];
