@@ -77,25 +77,6 @@ std::size_t first_block(const std::uint32_t* start, std::size_t n, std::size_t b
   return lo_b;
 }
 
-// Largest squared displacement of particles [lo, hi) since the reference `q` (SoA scaled, as
-// State::pos), in real space of the current cell; NaN if a position is not finite.
-double max_drift2(const State& state, const double* q, std::size_t lo, std::size_t hi) {
-  const std::size_t n = state.size();
-  const Eigen::Matrix3d h = state.box.h();
-  const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
-  const double* p = state.pos.data();
-  double m = 0.0, sum = 0.0;
-#pragma omp simd reduction(max : m) reduction(+ : sum)
-  for (std::size_t i = lo; i < hi; ++i) {
-    const double ux = p[i] - q[i], uy = p[n + i] - q[n + i], uz = p[2 * n + i] - q[2 * n + i];
-    const double rx = hxx * ux + hxy * uy, ry = hyy * uy, rz = hzz * uz;
-    const double d2 = rx * rx + ry * ry + rz * rz;
-    m = d2 > m ? d2 : m;
-    sum += d2;  // a NaN never wins the max, but it poisons the sum
-  }
-  return std::isfinite(sum) ? m : std::nan("");
-}
-
 // Per-thread partial sums of a force pass, reduced in thread order so that one thread count
 // is deterministic.
 struct ThreadSums {
@@ -182,7 +163,7 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
     const std::size_t b1 = first_block(start, n, blocks, tid + 1, nthr);
     const std::size_t lo = std::min(n, b0 * kBlock), hi = std::min(n, b1 * kBlock);
     if (have_ref)
-      drift2[tid] = max_drift2(state, ref, lo, hi);
+      drift2[tid] = NeighbourList::max_displacement2(state, ref, lo, hi);
     std::fill(fx + lo, fx + hi, 0.0);
     std::fill(fy + lo, fy + hi, 0.0);
     std::fill(fz + lo, fz + hi, 0.0);
@@ -478,7 +459,7 @@ void ForceField::compute_harmonic_vector(const State& state, const NeighbourList
       pos[4 * i + 3] = 0.5 * d[i];
     }
     if (have_ref)
-      drift2[tid] = max_drift2(state, ref, lo, hi);
+      drift2[tid] = NeighbourList::max_displacement2(state, ref, lo, hi);
     std::fill(frc + 4 * lo, frc + 4 * hi, 0.0);
     // The idle row: radius 0 at the origin, so a padding pair (idle, idle) never touches.
     std::fill(pos + 4 * idle, pos + 4 * idle + 4, 0.0);

@@ -67,6 +67,13 @@ void fill_rows(std::size_t n, int threads, std::vector<std::uint32_t>& start,
     entries.insert(entries.end(), part.begin(), part.end());
 }
 
+// sigma_min(m): the least a unit vector can be stretched by the affine map m.
+double smallest_stretch(const Eigen::Matrix3d& m) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(m.transpose() * m,
+                                                           Eigen::EigenvaluesOnly);
+  return std::sqrt(std::max(0.0, eig.eigenvalues().minCoeff()));
+}
+
 }  // namespace
 
 const std::array<std::array<double, 3>, 27>& NeighbourList::shifts() {
@@ -245,32 +252,42 @@ void NeighbourList::build_all_pairs(const State& state) {
   }
 }
 
-NeighbourList::Drift NeighbourList::drift(const State& state, const std::vector<double>& ref,
-                                          const Eigen::Matrix3d& h_ref_inv, int threads) const {
-  const Eigen::Matrix3d h = state.box.h();
-  const Eigen::Matrix3d m = h * h_ref_inv;
-  const double sigma_min = std::sqrt(std::max(
-      0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(m.transpose() * m, Eigen::EigenvaluesOnly)
-               .eigenvalues()
-               .minCoeff()));
+double NeighbourList::max_displacement2(const State& state, const double* ref, std::size_t lo,
+                                        std::size_t hi) {
   const std::size_t n = state.size();
+  const Eigen::Matrix3d h = state.box.h();
   const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
   const double* p = state.pos.data();
-  const double* q = ref.data();
-  double d2max = 0.0, d2sum = 0.0;
-#pragma omp parallel for simd schedule(static) num_threads(threads) if (threads > 1) \
-    reduction(max : d2max) reduction(+ : d2sum)
-  for (std::size_t i = 0; i < n; ++i) {
+  const double* q = ref;
+  double m = 0.0, sum = 0.0;
+#pragma omp simd reduction(max : m) reduction(+ : sum)
+  for (std::size_t i = lo; i < hi; ++i) {
     const double ux = p[i] - q[i], uy = p[n + i] - q[n + i], uz = p[2 * n + i] - q[2 * n + i];
     const double rx = hxx * ux + hxy * uy, ry = hyy * uy, rz = hzz * uz;
     const double d2 = rx * rx + ry * ry + rz * rz;
-    d2max = d2 > d2max ? d2 : d2max;
-    d2sum += d2;
+    m = d2 > m ? d2 : m;
+    sum += d2;  // a NaN never wins the max, but it poisons the sum
   }
-  // A NaN never wins the max comparison, but it does poison the sum.
-  if (!std::isfinite(d2sum))
+  return std::isfinite(sum) ? m : std::nan("");
+}
+
+NeighbourList::Drift NeighbourList::drift(const State& state, const std::vector<double>& ref,
+                                          const Eigen::Matrix3d& h_ref_inv, int threads) const {
+  const std::size_t n = state.size();
+  double d2max = 0.0;
+  bool finite = true;
+#pragma omp parallel num_threads(threads) if (threads > 1) reduction(max : d2max) \
+    reduction(&& : finite)
+  {
+    const std::size_t t = std::size_t(omp_get_thread_num());
+    const std::size_t m = std::size_t(omp_get_num_threads());
+    const double d2 = max_displacement2(state, ref.data(), n * t / m, n * (t + 1) / m);
+    finite = !std::isnan(d2);
+    d2max = finite ? d2 : 0.0;
+  }
+  if (!finite)
     throw IntegrationError("particle positions became non-finite");
-  return {std::sqrt(d2max), sigma_min};
+  return {std::sqrt(d2max), smallest_stretch(state.box.h() * h_ref_inv)};
 }
 
 bool NeighbourList::holds(const Drift& d, double skin, double margin) const {
@@ -285,12 +302,7 @@ bool NeighbourList::holds(const Drift& d, double skin, double margin) const {
 bool NeighbourList::inner_holds(const State& state, double max_drift) const {
   if (!built_ || inner_ref_pos_.size() != state.pos.size() || !std::isfinite(max_drift))
     return false;
-  const Eigen::Matrix3d m = state.box.h() * inner_h_ref_inv_;
-  const double sigma_min = std::sqrt(std::max(
-      0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(m.transpose() * m, Eigen::EigenvaluesOnly)
-               .eigenvalues()
-               .minCoeff()));
-  return holds({max_drift, sigma_min}, inner_skin_, 0.0);
+  return holds({max_drift, smallest_stretch(state.box.h() * inner_h_ref_inv_)}, inner_skin_, 0.0);
 }
 
 NeighbourList::Status NeighbourList::status(const State& state, int threads) const {

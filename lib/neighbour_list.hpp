@@ -59,6 +59,11 @@ class NeighbourList {
   // by the force pass); false also for a non-finite one, or when never built.
   bool inner_holds(const State& state, double max_drift) const;
   const std::vector<double>& inner_reference() const { return inner_ref_pos_; }
+  // Largest squared displacement of particles [lo, hi) since `ref` (SoA scaled, as State::pos),
+  // in real space of the current cell; NaN if a position is not finite. Both list checks and
+  // the force pass's own measurement use it.
+  static double max_displacement2(const State& state, const double* ref, std::size_t lo,
+                                  std::size_t hi);
   bool built() const { return built_; }
   // Re-selects the inner list from the outer one; only after status() said kInnerStale.
   void refresh_inner(const State& state, int threads = 1);
