@@ -169,7 +169,9 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
     std::fill(fz + lo, fz + hi, 0.0);
     ContactScratch& cs = scratch_[tid];
     cs.resize(capacity);
-    cs.deferred.clear();
+    cs.reserve_deferred(start[hi] - start[lo]);  // at most one per listed pair
+    Deferred* deferred = cs.deferred_rows.get();
+    std::size_t nd = 0;
     std::uint32_t* ci = cs.i.data();
     std::uint32_t* cj = cs.j.data();
     double* crx = cs.rx.data();
@@ -244,7 +246,7 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
             fy[j] -= cry[c];
             fz[j] -= crz[c];
           } else {
-            cs.deferred.push_back({j, -crx[c], -cry[c], -crz[c]});
+            deferred[nd++] = {j, -crx[c], -cry[c], -crz[c]};
           }
         }
       }
@@ -253,17 +255,14 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
     energy[tid] = u;
     vir[tid] << wxx, wyy, wzz, wxy, wxz, wyz;
     contacts[tid] = nc;
+    cs.deferred = nd;
     if (nthr > 1) {
 #pragma omp barrier
-      for (int t = 0; t < nthr; ++t) {
-        for (const Deferred& df : scratch_[t].deferred) {
-          if (df.j >= lo && df.j < hi) {
-            fx[df.j] += df.fx;
-            fy[df.j] += df.fy;
-            fz[df.j] += df.fz;
-          }
-        }
-      }
+      apply_deferred(nthr, lo, hi, [&](std::uint32_t j, double gx, double gy, double gz) {
+        fx[j] += gx;
+        fy[j] += gy;
+        fz[j] += gz;
+      });
     }
     // The forces of this range are final: their squared sum, here rather than in a second
     // parallel region.
@@ -311,12 +310,12 @@ struct VectorSums {
 
 // Pairs [k0, k1) of the inner list (owners in [lo, hi)): pair law, energy, virial, and forces
 // into the rows. With Shared (several threads), a force on a partner outside [lo, hi) goes to
-// `far` instead. Padding lanes use the thread's idle row.
+// `deferred` instead. Padding lanes use the thread's idle row.
 template <bool Shared>
 VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
                         const std::uint32_t* owner, const std::uint32_t* entries, std::size_t k0,
                         std::size_t k1, std::size_t lo, std::size_t hi, std::size_t idle,
-                        DeferredForce* far, std::size_t& nfar) {
+                        DeferredForce* deferred, std::size_t& ndeferred) {
   constexpr unsigned kBits = NeighbourList::kCodeBits;
   constexpr std::size_t kZeroShift = 13;  // image code of n = (0, 0, 0)
   const char* prow = reinterpret_cast<const char*>(pos);
@@ -326,7 +325,7 @@ VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
   const std::size_t idle_off = idle << kBits;
   const __m256d one = _mm256_set1_pd(1.0), zero = _mm256_setzero_pd();
   __m256d u = zero, wxx = zero, wyy = zero, wzz = zero, wxy = zero, wxz = zero, wyz = zero;
-  std::size_t nc = 0, nf = nfar;
+  std::size_t nc = 0, nd = ndeferred;
   const auto chunk = [&](const std::size_t* io, const std::size_t* jo, const std::size_t* so) {
     __m256d qi[4], qj[4];
     for (int l = 0; l < 4; ++l) {
@@ -375,7 +374,7 @@ VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
       } else {
         alignas(32) double t[4];
         _mm256_store_pd(t, g[l]);
-        far[nf++] = {std::uint32_t(jo[l] >> kBits), -t[0], -t[1], -t[2]};
+        deferred[nd++] = {std::uint32_t(jo[l] >> kBits), -t[0], -t[1], -t[2]};
       }
     }
   };
@@ -400,7 +399,7 @@ VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
     }
     chunk(io, jo, so);
   }
-  nfar = nf;
+  ndeferred = nd;
   return {u, wxx, wyy, wzz, wxy, wxz, wyz, nc};
 }
 
@@ -466,36 +465,27 @@ void ForceField::compute_harmonic_vector(const State& state, const NeighbourList
     std::fill(frc + 4 * idle, frc + 4 * idle + 4, 0.0);
     ContactScratch& cs = scratch_[tid];
     const std::uint32_t k0 = start[lo], k1 = start[hi];
-    cs.reserve_far(k1 - k0 + 4);  // at most one deferred force per pair (lane)
-    Deferred* far = cs.far_rows.get();
-    std::size_t nfar = 0;
+    cs.reserve_deferred(k1 - k0 + 4);  // at most one per pair or padding lane
+    Deferred* deferred = cs.deferred_rows.get();
+    std::size_t nd = 0;
 #pragma omp barrier  // every row is written before any thread reads its neighbours
 
-    VectorSums sums;
-    if (nthr == 1) {
-      sums = vector_pairs<false>(pos, shift, frc, owner, entries, k0, k1, lo, hi, idle, far, nfar);
-    } else {
-      sums = vector_pairs<true>(pos, shift, frc, owner, entries, k0, k1, lo, hi, idle, far, nfar);
-    }
-    const __m256d u = sums.u;
-    energy[tid] = 0.5 * lane_sum(u);
-    vir[tid] << lane_sum(sums.wxx), lane_sum(sums.wyy), lane_sum(sums.wzz), lane_sum(sums.wxy),
-        lane_sum(sums.wxz), lane_sum(sums.wyz);
-    contacts[tid] = sums.contacts;
-    cs.far = nfar;
+    const VectorSums lanes = nthr == 1 ? vector_pairs<false>(pos, shift, frc, owner, entries, k0,
+                                                             k1, lo, hi, idle, deferred, nd)
+                                       : vector_pairs<true>(pos, shift, frc, owner, entries, k0, k1,
+                                                            lo, hi, idle, deferred, nd);
+    energy[tid] = 0.5 * lane_sum(lanes.u);
+    vir[tid] << lane_sum(lanes.wxx), lane_sum(lanes.wyy), lane_sum(lanes.wzz), lane_sum(lanes.wxy),
+        lane_sum(lanes.wxz), lane_sum(lanes.wyz);
+    contacts[tid] = lanes.contacts;
+    cs.deferred = nd;
     if (nthr > 1) {
 #pragma omp barrier
-      for (int t = 0; t < nthr; ++t) {
-        const ContactScratch& other = scratch_[t];
-        for (std::size_t q = 0; q < other.far; ++q) {
-          const Deferred& df = other.far_rows[q];
-          if (df.j >= lo && df.j < hi) {  // padding lanes (idle rows) belong to no range
-            frc[4 * df.j] += df.fx;
-            frc[4 * df.j + 1] += df.fy;
-            frc[4 * df.j + 2] += df.fz;
-          }
-        }
-      }
+      apply_deferred(nthr, lo, hi, [&](std::uint32_t j, double gx, double gy, double gz) {
+        frc[4 * j] += gx;
+        frc[4 * j + 1] += gy;
+        frc[4 * j + 2] += gz;
+      });
     }
     double f2 = 0.0;
     for (std::size_t i = lo; i < hi; ++i) {

@@ -62,6 +62,19 @@ class ForceField {
                     ForceResult& out) const;
   void compute_harmonic_vector(const State& state, const NeighbourList& list,
                                ForceResult& out) const;
+  // After the barrier: adds every thread's deferred forces on particles in [lo, hi), in thread
+  // order, through add(j, fx, fy, fz).
+  template <class Add>
+  void apply_deferred(int nthr, std::size_t lo, std::size_t hi, const Add& add) const {
+    for (int t = 0; t < nthr; ++t) {
+      const ContactScratch& other = scratch_[t];
+      for (std::size_t q = 0; q < other.deferred; ++q) {
+        const Deferred& df = other.deferred_rows[q];
+        if (df.j >= lo && df.j < hi)  // the vector kernel's padding lanes belong to no range
+          add(df.j, df.fx, df.fy, df.fz);
+      }
+    }
+  }
   template <class Pair>
   void hessian_impl(const Pair& pair, const State& state, const NeighbourList& list,
                     const double* v, double* out) const;
@@ -71,17 +84,17 @@ class ForceField {
   struct ContactScratch {
     std::vector<std::uint32_t> i, j;
     std::vector<double> rx, ry, rz, r2, a;
-    std::vector<Deferred> deferred;
-    // The vector kernel's deferred forces: a plain buffer, so that no call (which would spill
-    // the vector accumulators) sits in its pair loop. Holds `far` entries.
-    std::unique_ptr<Deferred[]> far_rows;
-    std::size_t far_capacity = 0, far = 0;
-    void reserve_far(std::size_t m) {
-      if (far_capacity < m) {
-        far_rows = std::make_unique_for_overwrite<Deferred[]>(m);
-        far_capacity = m;
+    // Forces on particles of other threads' ranges, `deferred` of them: a plain buffer with
+    // room for one per pair of the range, so that no call (which would spill the vector
+    // kernel's accumulators) sits in a pair loop.
+    std::unique_ptr<Deferred[]> deferred_rows;
+    std::size_t deferred_capacity = 0, deferred = 0;
+    void reserve_deferred(std::size_t m) {
+      if (deferred_capacity < m) {
+        deferred_rows = std::make_unique_for_overwrite<Deferred[]>(m);
+        deferred_capacity = m;
       }
-      far = 0;
+      deferred = 0;
     }
     void resize(std::size_t m) {
       if (i.size() >= m)
