@@ -308,46 +308,75 @@ struct VectorSums {
   std::size_t contacts;
 };
 
+// Byte offsets of four pairs: the owner's row, the partner's row and the image shift's row.
+struct PairOffsets {
+  std::size_t i[4], j[4], s[4];
+};
+
+// The four pairs' rows (r_ij, a_i + a_j) = row_i + h n - row_j * (1, 1, 1, -1), where
+// r_ij = x_i - (x_j - h n).
+inline void pair_rows(const char* prow, const char* srow, const PairOffsets& o, __m256d* d) {
+  const __m256d sign = _mm256_setr_pd(1.0, 1.0, 1.0, -1.0);
+  for (int l = 0; l < 4; ++l) {
+    const __m256d qi =
+        _mm256_add_pd(_mm256_load_pd(reinterpret_cast<const double*>(prow + o.i[l])),
+                      _mm256_load_pd(reinterpret_cast<const double*>(srow + o.s[l])));
+    d[l] =
+        _mm256_fnmadd_pd(_mm256_load_pd(reinterpret_cast<const double*>(prow + o.j[l])), sign, qi);
+  }
+}
+
 // Pairs [k0, k1) of the inner list (owners in [lo, hi)): pair law, energy, virial, and forces
 // into the rows. With Shared (several threads), a force on a partner outside [lo, hi) goes to
-// `deferred` instead. Padding lanes use the thread's idle row.
+// `deferred` instead. Padding lanes use the thread's idle row, whose radius is 0, so that a
+// padding pair never touches.
+//
+// The loop is latency-bound (a chunk's loads, square root and division form a chain of about
+// a hundred cycles), so it is software-pipelined: the rows of chunk c + 1 are loaded while
+// chunk c is evaluated, and 1/r comes from a 14-bit estimate refined by two Newton steps
+// (relative error ~1e-16) rather than a square root followed by a division.
 template <bool Shared>
 VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
                         const std::uint32_t* owner, const std::uint32_t* entries, std::size_t k0,
                         std::size_t k1, std::size_t lo, std::size_t hi, std::size_t idle,
                         DeferredForce* deferred, std::size_t& ndeferred) {
   constexpr unsigned kBits = NeighbourList::kCodeBits;
+  constexpr std::size_t kCode = NeighbourList::kCodeMask;
   constexpr std::size_t kZeroShift = 13;  // image code of n = (0, 0, 0)
   const char* prow = reinterpret_cast<const char*>(pos);
   const char* srow = reinterpret_cast<const char*>(shift);
   char* frow = reinterpret_cast<char*>(frc);
   const std::size_t lo_off = lo << kBits, span = (hi - lo) << kBits;
   const std::size_t idle_off = idle << kBits;
-  const __m256d one = _mm256_set1_pd(1.0), zero = _mm256_setzero_pd();
+  const __m256d one = _mm256_set1_pd(1.0), half = _mm256_set1_pd(0.5),
+                three_halves = _mm256_set1_pd(1.5), zero = _mm256_setzero_pd();
   __m256d u = zero, wxx = zero, wyy = zero, wzz = zero, wxy = zero, wxz = zero, wyz = zero;
   std::size_t nc = 0, nd = ndeferred;
-  const auto chunk = [&](const std::size_t* io, const std::size_t* jo, const std::size_t* so) {
-    __m256d qi[4], qj[4];
+
+  const auto offsets = [&](std::size_t k, PairOffsets& o) {
     for (int l = 0; l < 4; ++l) {
-      qi[l] = _mm256_load_pd(reinterpret_cast<const double*>(prow + io[l]));
-      // r_ij = x_i - (x_j - h n): subtract the image shift from the partner's row.
-      qj[l] = _mm256_sub_pd(_mm256_load_pd(reinterpret_cast<const double*>(prow + jo[l])),
-                            _mm256_load_pd(reinterpret_cast<const double*>(srow + so[l])));
+      const std::size_t e = entries[k + l];
+      o.i[l] = std::size_t(owner[k + l]) << kBits;
+      o.j[l] = e & ~kCode;
+      o.s[l] = (e & kCode) << 5;
     }
-    __m256d xi, yi, zi, ai, xj, yj, zj, aj;
-    transpose4(qi, xi, yi, zi, ai);
-    transpose4(qj, xj, yj, zj, aj);
-    const __m256d rx = _mm256_sub_pd(xi, xj), ry = _mm256_sub_pd(yi, yj),
-                  rz = _mm256_sub_pd(zi, zj);
-    const __m256d a = _mm256_add_pd(ai, aj);
+  };
+  const auto evaluate = [&](const PairOffsets& o, const __m256d* d) {
+    __m256d rx, ry, rz, a;
+    transpose4(d, rx, ry, rz, a);
     const __m256d r2 = _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
     const __mmask8 touch = _mm256_cmp_pd_mask(r2, _mm256_mul_pd(a, a), _CMP_LT_OQ);
     nc += std::size_t(__builtin_popcount(touch));
-    // HarmonicPair on the touching lanes; the others get harmless 1s and a zero force.
-    const __m256d r = _mm256_sqrt_pd(_mm256_mask_mov_pd(one, touch, r2));
-    const __m256d inv_a = _mm256_div_pd(one, _mm256_mask_mov_pd(one, touch, a));
-    const __m256d delta = _mm256_maskz_mov_pd(touch, _mm256_fnmadd_pd(r, inv_a, one));
-    const __m256d f_over_r = _mm256_div_pd(_mm256_mul_pd(delta, inv_a), r);
+    // 1/r for every lane (padding lanes give inf or NaN, masked below).
+    const __m256d h = _mm256_mul_pd(half, r2);
+    __m256d s = _mm256_rsqrt14_pd(r2);
+    s = _mm256_mul_pd(s, _mm256_fnmadd_pd(h, _mm256_mul_pd(s, s), three_halves));
+    s = _mm256_mul_pd(s, _mm256_fnmadd_pd(h, _mm256_mul_pd(s, s), three_halves));
+    const __m256d inv_a = _mm256_div_pd(one, a);
+    // HarmonicPair: delta = 1 - r/a, |f| = delta / a; zero on the lanes that do not touch.
+    const __m256d delta =
+        _mm256_maskz_mov_pd(touch, _mm256_fnmadd_pd(_mm256_mul_pd(r2, s), inv_a, one));
+    const __m256d f_over_r = _mm256_maskz_mul_pd(touch, _mm256_mul_pd(delta, inv_a), s);
     const __m256d gx = _mm256_mul_pd(f_over_r, rx), gy = _mm256_mul_pd(f_over_r, ry),
                   gz = _mm256_mul_pd(f_over_r, rz);
     u = _mm256_fmadd_pd(delta, delta, u);
@@ -357,47 +386,63 @@ VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
     wxy = _mm256_fmadd_pd(rx, gy, wxy);
     wxz = _mm256_fmadd_pd(rx, gz, wxz);
     wyz = _mm256_fmadd_pd(ry, gz, wyz);
-    // Back to rows (gx, gy, gz, 0), then Newton's third law.
-    const __m256d s0 = _mm256_unpacklo_pd(gx, gy);    // x0 y0 x2 y2
-    const __m256d s1 = _mm256_unpackhi_pd(gx, gy);    // x1 y1 x3 y3
-    const __m256d s2 = _mm256_unpacklo_pd(gz, zero);  // z0 0 z2 0
-    const __m256d s3 = _mm256_unpackhi_pd(gz, zero);  // z1 0 z3 0
-    const __m256d g[4] = {
-        _mm256_permute2f128_pd(s0, s2, 0x20), _mm256_permute2f128_pd(s1, s3, 0x20),
-        _mm256_permute2f128_pd(s0, s2, 0x31), _mm256_permute2f128_pd(s1, s3, 0x31)};
+    // Pair forces as rows: f/r times the pair's row, its fourth entry masked to 0.
+    const __m256d g[4] = {_mm256_maskz_mul_pd(0x7, _mm256_permute4x64_pd(f_over_r, 0x00), d[0]),
+                          _mm256_maskz_mul_pd(0x7, _mm256_permute4x64_pd(f_over_r, 0x55), d[1]),
+                          _mm256_maskz_mul_pd(0x7, _mm256_permute4x64_pd(f_over_r, 0xAA), d[2]),
+                          _mm256_maskz_mul_pd(0x7, _mm256_permute4x64_pd(f_over_r, 0xFF), d[3])};
     for (int l = 0; l < 4; ++l) {
-      double* fi = reinterpret_cast<double*>(frow + io[l]);
+      double* fi = reinterpret_cast<double*>(frow + o.i[l]);
       _mm256_store_pd(fi, _mm256_add_pd(_mm256_load_pd(fi), g[l]));
-      if (!Shared || jo[l] - lo_off < span || jo[l] == idle_off) {
-        double* fj = reinterpret_cast<double*>(frow + jo[l]);
+      if (!Shared || o.j[l] - lo_off < span || o.j[l] == idle_off) {
+        double* fj = reinterpret_cast<double*>(frow + o.j[l]);
         _mm256_store_pd(fj, _mm256_sub_pd(_mm256_load_pd(fj), g[l]));
       } else {
         alignas(32) double t[4];
         _mm256_store_pd(t, g[l]);
-        deferred[nd++] = {std::uint32_t(jo[l] >> kBits), -t[0], -t[1], -t[2]};
+        deferred[nd++] = {std::uint32_t(o.j[l] >> kBits), -t[0], -t[1], -t[2]};
       }
     }
   };
-  std::size_t io[4], jo[4], so[4];
-  std::size_t k = k0;
-  for (; k + 4 <= k1; k += 4) {
-    for (int l = 0; l < 4; ++l) {
-      const std::size_t e = entries[k + l];
-      io[l] = std::size_t(owner[k + l]) << kBits;
-      jo[l] = e & ~std::size_t(NeighbourList::kCodeMask);
-      so[l] = (e & NeighbourList::kCodeMask) << 5;
+
+  // Full chunks, pipelined one deep (unrolled twice so that both stages stay in registers).
+  const std::size_t full = k0 + (k1 - k0) / 4 * 4;
+  if (k0 < full) {
+    PairOffsets oa, ob;
+    __m256d da[4], db[4];
+    offsets(k0, oa);
+    pair_rows(prow, srow, oa, da);
+    std::size_t k = k0 + 4;
+    for (; k + 4 < full; k += 8) {
+      offsets(k, ob);
+      pair_rows(prow, srow, ob, db);
+      evaluate(oa, da);
+      offsets(k + 4, oa);
+      pair_rows(prow, srow, oa, da);
+      evaluate(ob, db);
     }
-    chunk(io, jo, so);
+    if (k < full) {
+      offsets(k, ob);
+      pair_rows(prow, srow, ob, db);
+      evaluate(oa, da);
+      evaluate(ob, db);
+    } else {
+      evaluate(oa, da);
+    }
   }
-  if (k < k1) {  // the last, partial chunk
+  if (full < k1) {  // the last, partial chunk
+    PairOffsets o;
     for (int l = 0; l < 4; ++l) {
-      const bool real = k + std::size_t(l) < k1;
-      const std::size_t e = real ? std::size_t(entries[k + l]) : idle_off | kZeroShift;
-      io[l] = real ? std::size_t(owner[k + l]) << kBits : idle_off;
-      jo[l] = e & ~std::size_t(NeighbourList::kCodeMask);
-      so[l] = (e & NeighbourList::kCodeMask) << 5;
+      const std::size_t k = full + std::size_t(l);
+      const bool real = k < k1;
+      const std::size_t e = real ? std::size_t(entries[k]) : idle_off | kZeroShift;
+      o.i[l] = real ? std::size_t(owner[k]) << kBits : idle_off;
+      o.j[l] = e & ~kCode;
+      o.s[l] = (e & kCode) << 5;
     }
-    chunk(io, jo, so);
+    __m256d d[4];
+    pair_rows(prow, srow, o, d);
+    evaluate(o, d);
   }
   ndeferred = nd;
   return {u, wxx, wyy, wzz, wxy, wxz, wyz, nc};
