@@ -16,9 +16,7 @@ void move_cell(State& state, double dstrain, double new_volume) {
 
 void drift_particles(State& state, const std::vector<double>& force, double dt, int threads) {
   const std::size_t n = state.size();
-  const Eigen::Matrix3d hi = state.box.h_inv();
-  const double a = dt / kXiS;
-  const double ixx = hi(0, 0) * a, ixy = hi(0, 1) * a, iyy = hi(1, 1) * a, izz = hi(2, 2) * a;
+  const Drift drift = Drift::of(state.box.h_inv(), dt / kXiS);
   double* x = state.x();
   double* y = state.y();
   double* z = state.z();
@@ -26,11 +24,8 @@ void drift_particles(State& state, const std::vector<double>& force, double dt, 
   const double* fy = fx + n;
   const double* fz = fx + 2 * n;
 #pragma omp parallel for simd schedule(static) num_threads(threads) if (threads > 1)
-  for (std::size_t i = 0; i < n; ++i) {
-    x[i] += ixx * fx[i] + ixy * fy[i];
-    y[i] += iyy * fy[i];
-    z[i] += izz * fz[i];
-  }
+  for (std::size_t i = 0; i < n; ++i)
+    drift.apply(x[i], y[i], z[i], fx[i], fy[i], fz[i]);
 }
 
 std::unique_ptr<Integrator> make_euler(ConfigSection& section) {

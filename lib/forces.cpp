@@ -31,10 +31,41 @@ ForceField::ForceField(double alpha_r, int threads)
     threads_ = omp_get_max_threads();
 }
 
+// Spare rows per thread after the n particle rows of the vector kernel: the idle row (padding
+// lanes) and, with it, one row per lane for the forces a kOwned pass does not apply.
+constexpr std::size_t kSpareRows = 4;
+
 bool ForceField::vector_kernel(std::size_t n) const {
-  // Row byte offsets (row << 5) must fit 32 bits, padding rows included.
+  // Row byte offsets (row << 5) must fit 32 bits, spare rows included.
   return JAMFLOW_VECTOR_KERNEL && harmonic_ && !portable_ &&
-         n + std::size_t(threads_) < (std::size_t(1) << 27);
+         n + kSpareRows * std::size_t(threads_) < (std::size_t(1) << 27);
+}
+
+void ForceField::ContactScratch::import_pairs(const NeighbourList& list, std::size_t lo,
+                                              std::size_t hi) {
+  if (import_generation == list.inner_generation() && import_lo == lo && import_hi == hi)
+    return;
+  import_owner.clear();
+  import_entries.clear();
+  const std::uint32_t* start = list.inner_start().data();
+  const std::uint32_t* entries = list.inner_entries().data();
+  const std::size_t n = list.inner_start().size() - 1;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i == lo)
+      i = hi;  // owners outside [lo, hi) only
+    if (i >= n)
+      break;
+    for (std::uint32_t k = start[i]; k < start[i + 1]; ++k) {
+      const std::size_t j = entries[k] >> NeighbourList::kCodeBits;
+      if (j >= lo && j < hi) {
+        import_owner.push_back(std::uint32_t(i));
+        import_entries.push_back(entries[k]);
+      }
+    }
+  }
+  import_generation = list.inner_generation();
+  import_lo = lo;
+  import_hi = hi;
 }
 
 void ForceField::compute(const State& state, const NeighbourList& list, ForceResult& out) const {
@@ -45,6 +76,30 @@ void ForceField::compute(const State& state, const NeighbourList& list, ForceRes
   } else {
     compute_impl(PowerPair{alpha_}, state, list, out);
   }
+}
+
+bool ForceField::compute_and_drift(State& state, const NeighbourList& list, ForceResult& out,
+                                   const Drift& drift) const {
+  bool done = false;
+  if (vector_kernel(state.size())) {
+    done = compute_harmonic_vector(state, list, out, &drift, state.pos.data());
+  } else {
+    compute(state, list, out);
+    if (list.inner_holds(state, std::sqrt(out.max_drift2))) {
+      const std::size_t n = state.size();
+      double* x = state.x();
+      double* y = state.y();
+      double* z = state.z();
+      const double* f = out.force.data();
+#pragma omp parallel for schedule(static) num_threads(threads_) if (threads_ > 1)
+      for (std::size_t i = 0; i < n; ++i)
+        drift.apply(x[i], y[i], z[i], f[i], f[n + i], f[2 * n + i]);
+      done = true;
+    }
+  }
+  if (done)
+    out.force.clear();
+  return done;
 }
 
 // Particles are processed in blocks of kBlock (in memory order, which follows the cell order).
@@ -308,38 +363,26 @@ struct VectorSums {
   std::size_t contacts;
 };
 
-// Byte offsets of four pairs: the owner's row, the partner's row and the image shift's row.
-struct PairOffsets {
-  std::size_t i[4], j[4], s[4];
+// Which forces a pass over pairs applies (see compute_harmonic_vector).
+enum class PairMode {
+  kAll,       // one thread: both forces of every pair
+  kOwned,     // the pairs of owners in [lo, hi); a partner outside gets no force here
+  kImported,  // pairs of earlier owners with partners in [lo, hi): the partner's force only
 };
 
-// The four pairs' rows (r_ij, a_i + a_j) = row_i + h n - row_j * (1, 1, 1, -1), where
-// r_ij = x_i - (x_j - h n).
-inline void pair_rows(const char* prow, const char* srow, const PairOffsets& o, __m256d* d) {
-  const __m256d sign = _mm256_setr_pd(1.0, 1.0, 1.0, -1.0);
-  for (int l = 0; l < 4; ++l) {
-    const __m256d qi =
-        _mm256_add_pd(_mm256_load_pd(reinterpret_cast<const double*>(prow + o.i[l])),
-                      _mm256_load_pd(reinterpret_cast<const double*>(srow + o.s[l])));
-    d[l] =
-        _mm256_fnmadd_pd(_mm256_load_pd(reinterpret_cast<const double*>(prow + o.j[l])), sign, qi);
-  }
-}
-
-// Pairs [k0, k1) of the inner list (owners in [lo, hi)): pair law, energy, virial, and forces
-// into the rows. With Shared (several threads), a force on a partner outside [lo, hi) goes to
-// `deferred` instead. Padding lanes use the thread's idle row, whose radius is 0, so that a
-// padding pair never touches.
+// Pairs [k0, k1) of `owner`/`entries`: pair law, energy, virial and forces into the rows.
+// kImported adds no energy, virial or contacts (the owner's thread counts the pair). Padding
+// lanes use the thread's idle row, whose radius is 0, so a padding pair never touches; the
+// thread's four spare rows (idle, idle + 1, ...) take the forces kOwned does not apply.
 //
 // The loop is latency-bound (a chunk's loads, square root and division form a chain of about
 // a hundred cycles), so it is software-pipelined: the rows of chunk c + 1 are loaded while
 // chunk c is evaluated, and 1/r comes from a 14-bit estimate refined by two Newton steps
 // (relative error ~1e-16) rather than a square root followed by a division.
-template <bool Shared>
+template <PairMode Mode>
 VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
                         const std::uint32_t* owner, const std::uint32_t* entries, std::size_t k0,
-                        std::size_t k1, std::size_t lo, std::size_t hi, std::size_t idle,
-                        DeferredForce* deferred, std::size_t& ndeferred) {
+                        std::size_t k1, std::size_t lo, std::size_t hi, std::size_t idle) {
   constexpr unsigned kBits = NeighbourList::kCodeBits;
   constexpr std::size_t kCode = NeighbourList::kCodeMask;
   constexpr std::size_t kZeroShift = 13;  // image code of n = (0, 0, 0)
@@ -351,22 +394,30 @@ VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
   const __m256d one = _mm256_set1_pd(1.0), half = _mm256_set1_pd(0.5),
                 three_halves = _mm256_set1_pd(1.5), zero = _mm256_setzero_pd();
   __m256d u = zero, wxx = zero, wyy = zero, wzz = zero, wxy = zero, wxz = zero, wyz = zero;
-  std::size_t nc = 0, nd = ndeferred;
+  std::size_t nc = 0;
 
-  const auto offsets = [&](std::size_t k, PairOffsets& o) {
+  // A chunk is four pairs, given by their owners and entries. Its rows, one per pair:
+  // (r_ij, a_i + a_j) = row_i + h n - row_j * (1, 1, 1, -1), where r_ij = x_i - (x_j - h n).
+  // The byte offsets are recomputed where they are used rather than kept across the pipeline
+  // stages, which would take more general registers than there are.
+  const __m256d sign = _mm256_setr_pd(1.0, 1.0, 1.0, -1.0);
+  const auto load = [&](const std::uint32_t* own, const std::uint32_t* ent, __m256d* d) {
     for (int l = 0; l < 4; ++l) {
-      const std::size_t e = entries[k + l];
-      o.i[l] = std::size_t(owner[k + l]) << kBits;
-      o.j[l] = e & ~kCode;
-      o.s[l] = (e & kCode) << 5;
+      const std::size_t e = ent[l];
+      const __m256d qi = _mm256_add_pd(
+          _mm256_load_pd(reinterpret_cast<const double*>(prow + (std::size_t(own[l]) << kBits))),
+          _mm256_load_pd(reinterpret_cast<const double*>(srow + ((e & kCode) << 5))));
+      d[l] = _mm256_fnmadd_pd(_mm256_load_pd(reinterpret_cast<const double*>(prow + (e & ~kCode))),
+                              sign, qi);
     }
   };
-  const auto evaluate = [&](const PairOffsets& o, const __m256d* d) {
+  const auto evaluate = [&](const std::uint32_t* own, const std::uint32_t* ent, const __m256d* d) {
     __m256d rx, ry, rz, a;
     transpose4(d, rx, ry, rz, a);
     const __m256d r2 = _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
     const __mmask8 touch = _mm256_cmp_pd_mask(r2, _mm256_mul_pd(a, a), _CMP_LT_OQ);
-    nc += std::size_t(__builtin_popcount(touch));
+    if constexpr (Mode != PairMode::kImported)
+      nc += std::size_t(__builtin_popcount(touch));
     // 1/r for every lane (padding lanes give inf or NaN, masked below).
     const __m256d h = _mm256_mul_pd(half, r2);
     __m256d s = _mm256_rsqrt14_pd(r2);
@@ -377,89 +428,89 @@ VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
     const __m256d delta =
         _mm256_maskz_mov_pd(touch, _mm256_fnmadd_pd(_mm256_mul_pd(r2, s), inv_a, one));
     const __m256d f_over_r = _mm256_maskz_mul_pd(touch, _mm256_mul_pd(delta, inv_a), s);
-    const __m256d gx = _mm256_mul_pd(f_over_r, rx), gy = _mm256_mul_pd(f_over_r, ry),
-                  gz = _mm256_mul_pd(f_over_r, rz);
-    u = _mm256_fmadd_pd(delta, delta, u);
-    wxx = _mm256_fmadd_pd(rx, gx, wxx);
-    wyy = _mm256_fmadd_pd(ry, gy, wyy);
-    wzz = _mm256_fmadd_pd(rz, gz, wzz);
-    wxy = _mm256_fmadd_pd(rx, gy, wxy);
-    wxz = _mm256_fmadd_pd(rx, gz, wxz);
-    wyz = _mm256_fmadd_pd(ry, gz, wyz);
+    if constexpr (Mode != PairMode::kImported) {
+      const __m256d gx = _mm256_mul_pd(f_over_r, rx), gy = _mm256_mul_pd(f_over_r, ry),
+                    gz = _mm256_mul_pd(f_over_r, rz);
+      u = _mm256_fmadd_pd(delta, delta, u);
+      wxx = _mm256_fmadd_pd(rx, gx, wxx);
+      wyy = _mm256_fmadd_pd(ry, gy, wyy);
+      wzz = _mm256_fmadd_pd(rz, gz, wzz);
+      wxy = _mm256_fmadd_pd(rx, gy, wxy);
+      wxz = _mm256_fmadd_pd(rx, gz, wxz);
+      wyz = _mm256_fmadd_pd(ry, gz, wyz);
+    }
     // Pair forces as rows: f/r times the pair's row, its fourth entry masked to 0.
     const __m256d g[4] = {_mm256_maskz_mul_pd(0x7, _mm256_permute4x64_pd(f_over_r, 0x00), d[0]),
                           _mm256_maskz_mul_pd(0x7, _mm256_permute4x64_pd(f_over_r, 0x55), d[1]),
                           _mm256_maskz_mul_pd(0x7, _mm256_permute4x64_pd(f_over_r, 0xAA), d[2]),
                           _mm256_maskz_mul_pd(0x7, _mm256_permute4x64_pd(f_over_r, 0xFF), d[3])};
     for (int l = 0; l < 4; ++l) {
-      double* fi = reinterpret_cast<double*>(frow + o.i[l]);
-      _mm256_store_pd(fi, _mm256_add_pd(_mm256_load_pd(fi), g[l]));
-      if (!Shared || o.j[l] - lo_off < span || o.j[l] == idle_off) {
-        double* fj = reinterpret_cast<double*>(frow + o.j[l]);
-        _mm256_store_pd(fj, _mm256_sub_pd(_mm256_load_pd(fj), g[l]));
-      } else {
-        alignas(32) double t[4];
-        _mm256_store_pd(t, g[l]);
-        deferred[nd++] = {std::uint32_t(o.j[l] >> kBits), -t[0], -t[1], -t[2]};
+      const std::size_t io = std::size_t(own[l]) << kBits, jo = ent[l] & ~kCode;
+      if constexpr (Mode != PairMode::kImported) {
+        double* fi = reinterpret_cast<double*>(frow + io);
+        _mm256_store_pd(fi, _mm256_add_pd(_mm256_load_pd(fi), g[l]));
       }
+      std::size_t jt = jo;
+      if constexpr (Mode == PairMode::kOwned)  // a select, not a branch
+        jt = jo - lo_off < span ? jo : idle_off + 32 * std::size_t(l);
+      double* fj = reinterpret_cast<double*>(frow + jt);
+      _mm256_store_pd(fj, _mm256_sub_pd(_mm256_load_pd(fj), g[l]));
     }
   };
 
   // Full chunks, pipelined one deep (unrolled twice so that both stages stay in registers).
   const std::size_t full = k0 + (k1 - k0) / 4 * 4;
   if (k0 < full) {
-    PairOffsets oa, ob;
     __m256d da[4], db[4];
-    offsets(k0, oa);
-    pair_rows(prow, srow, oa, da);
+    load(owner + k0, entries + k0, da);
     std::size_t k = k0 + 4;
     for (; k + 4 < full; k += 8) {
-      offsets(k, ob);
-      pair_rows(prow, srow, ob, db);
-      evaluate(oa, da);
-      offsets(k + 4, oa);
-      pair_rows(prow, srow, oa, da);
-      evaluate(ob, db);
+      load(owner + k, entries + k, db);
+      evaluate(owner + k - 4, entries + k - 4, da);
+      load(owner + k + 4, entries + k + 4, da);
+      evaluate(owner + k, entries + k, db);
     }
     if (k < full) {
-      offsets(k, ob);
-      pair_rows(prow, srow, ob, db);
-      evaluate(oa, da);
-      evaluate(ob, db);
+      load(owner + k, entries + k, db);
+      evaluate(owner + k - 4, entries + k - 4, da);
+      evaluate(owner + k, entries + k, db);
     } else {
-      evaluate(oa, da);
+      evaluate(owner + k - 4, entries + k - 4, da);
     }
   }
-  if (full < k1) {  // the last, partial chunk
-    PairOffsets o;
-    for (int l = 0; l < 4; ++l) {
-      const std::size_t k = full + std::size_t(l);
-      const bool real = k < k1;
-      const std::size_t e = real ? std::size_t(entries[k]) : idle_off | kZeroShift;
-      o.i[l] = real ? std::size_t(owner[k]) << kBits : idle_off;
-      o.j[l] = e & ~kCode;
-      o.s[l] = (e & kCode) << 5;
+  if (full < k1) {  // the last, partial chunk; padding pairs are (idle, idle)
+    std::uint32_t own[4], ent[4];
+    for (std::size_t l = 0; l < 4; ++l) {
+      const bool real = full + l < k1;
+      own[l] = real ? owner[full + l] : std::uint32_t(idle);
+      ent[l] = real ? entries[full + l] : std::uint32_t(idle_off | kZeroShift);
     }
     __m256d d[4];
-    pair_rows(prow, srow, o, d);
-    evaluate(o, d);
+    load(own, ent, d);
+    evaluate(own, ent, d);
   }
-  ndeferred = nd;
   return {u, wxx, wyy, wzz, wxy, wxz, wyz, nc};
 }
 
 }  // namespace
 
-void ForceField::compute_harmonic_vector(const State& state, const NeighbourList& list,
-                                         ForceResult& out) const {
+bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList& list,
+                                         ForceResult& out, const Drift* drift,
+                                         double* moved) const {
   const std::size_t n = state.size();
   out.force.resize(3 * n);
   const int nt = threads_;
   if (int(scratch_.size()) < nt)
     scratch_.resize(nt);
-  const std::size_t rows = n + std::size_t(nt);
-  double* pos = aligned_rows(rows_pos_, 4 * rows);
-  double* frc = aligned_rows(rows_force_, 4 * rows);
+  const std::size_t rows = n + kSpareRows * std::size_t(nt);
+  // Position and force rows in one buffer, the force rows half a page (2 KiB) further on, modulo
+  // 4 KiB, than the position rows: a load of a particle's position and a store to a nearby
+  // particle's force then never share their address bits below 4 KiB, which the processor
+  // takes for a possible dependence (4K aliasing) and which cost up to 1 ns per particle.
+  const std::size_t page = 512, span = (4 * rows + page - 1) / page * page;  // in doubles
+  double* pos = aligned_rows(rows_, span + page / 2 + 4 * rows + page);
+  pos += (page - (reinterpret_cast<std::uintptr_t>(pos) / sizeof(double)) % page) % page;
+  double* frc = pos + span + page / 2;
 
   const Eigen::Matrix3d h = state.box.h();
   const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
@@ -487,6 +538,9 @@ void ForceField::compute_harmonic_vector(const State& state, const NeighbourList
   double* fy = fx + n;
   double* fz = fy + n;
   const std::size_t blocks = (n + kBlock - 1) / kBlock;
+  // With a drift, the pass goes on only if the list holds; every thread decides the same.
+  const double allowed = drift ? list.inner_drift_allowed(state) : 0.0;
+  bool holds = true;
 
 #pragma omp parallel num_threads(nt)
   {
@@ -495,7 +549,7 @@ void ForceField::compute_harmonic_vector(const State& state, const NeighbourList
     const std::size_t b0 = first_block(start, n, blocks, tid, nthr);
     const std::size_t b1 = first_block(start, n, blocks, tid + 1, nthr);
     const std::size_t lo = std::min(n, b0 * kBlock), hi = std::min(n, b1 * kBlock);
-    const std::size_t idle = n + std::size_t(tid);
+    const std::size_t idle = n + kSpareRows * std::size_t(tid);
     for (std::size_t i = lo; i < hi; ++i) {
       pos[4 * i] = hxx * sx[i] + hxy * sy[i];
       pos[4 * i + 1] = hyy * sy[i];
@@ -506,48 +560,77 @@ void ForceField::compute_harmonic_vector(const State& state, const NeighbourList
       drift2[tid] = NeighbourList::max_displacement2(state, ref, lo, hi);
     std::fill(frc + 4 * lo, frc + 4 * hi, 0.0);
     // The idle row: radius 0 at the origin, so a padding pair (idle, idle) never touches.
-    std::fill(pos + 4 * idle, pos + 4 * idle + 4, 0.0);
-    std::fill(frc + 4 * idle, frc + 4 * idle + 4, 0.0);
+    std::fill(pos + 4 * idle, pos + 4 * (idle + kSpareRows), 0.0);
+    std::fill(frc + 4 * idle, frc + 4 * (idle + kSpareRows), 0.0);
     ContactScratch& cs = scratch_[tid];
-    const std::uint32_t k0 = start[lo], k1 = start[hi];
-    cs.reserve_deferred(k1 - k0 + 4);  // at most one per pair or padding lane
-    Deferred* deferred = cs.deferred_rows.get();
-    std::size_t nd = 0;
+    if (nthr > 1)
+      cs.import_pairs(list, lo, hi);
 #pragma omp barrier  // every row is written before any thread reads its neighbours
-
-    const VectorSums lanes = nthr == 1 ? vector_pairs<false>(pos, shift, frc, owner, entries, k0,
-                                                             k1, lo, hi, idle, deferred, nd)
-                                       : vector_pairs<true>(pos, shift, frc, owner, entries, k0, k1,
-                                                            lo, hi, idle, deferred, nd);
-    energy[tid] = 0.5 * lane_sum(lanes.u);
-    vir[tid] << lane_sum(lanes.wxx), lane_sum(lanes.wyy), lane_sum(lanes.wzz), lane_sum(lanes.wxy),
-        lane_sum(lanes.wxz), lane_sum(lanes.wyz);
-    contacts[tid] = lanes.contacts;
-    cs.deferred = nd;
-    if (nthr > 1) {
-#pragma omp barrier
-      apply_deferred(nthr, lo, hi, [&](std::uint32_t j, double gx, double gy, double gz) {
-        frc[4 * j] += gx;
-        frc[4 * j + 1] += gy;
-        frc[4 * j + 2] += gz;
-      });
+    bool go = true;
+    if (drift) {
+      double m = 0.0;
+      for (int t = 0; t < nthr; ++t)
+        m = std::max(m, drift2[t]);              // a NaN is not kept, and is caught below
+      go = have_ref && std::sqrt(m) <= allowed;  // as NeighbourList::inner_holds
+      for (int t = 0; t < nthr; ++t)
+        go = go && !std::isnan(drift2[t]);
+      if (tid == 0)
+        holds = go;  // every thread decides the same; if not, the caller renews the list
     }
-    double f2 = 0.0;
-    for (std::size_t i = lo; i < hi; ++i) {
-      fx[i] = frc[4 * i];
-      fy[i] = frc[4 * i + 1];
-      fz[i] = frc[4 * i + 2];
-      f2 += fx[i] * fx[i] + fy[i] * fy[i] + fz[i] * fz[i];
+    if (go) {
+      // With several threads a pair whose partner lies in a later range is evaluated twice: by
+      // the owner's thread (kOwned: the owner's force, energy, virial) and by the partner's
+      // (kImported: the partner's force). No thread writes another's rows, so there is no
+      // second barrier and no exchange of forces.
+      const std::uint32_t k0 = start[lo], k1 = start[hi];
+      VectorSums lanes;
+      if (nthr == 1) {
+        lanes = vector_pairs<PairMode::kAll>(pos, shift, frc, owner, entries, k0, k1, lo, hi, idle);
+      } else {
+        lanes =
+            vector_pairs<PairMode::kOwned>(pos, shift, frc, owner, entries, k0, k1, lo, hi, idle);
+        vector_pairs<PairMode::kImported>(pos, shift, frc, cs.import_owner.data(),
+                                          cs.import_entries.data(), 0, cs.import_owner.size(), lo,
+                                          hi, idle);
+      }
+      energy[tid] = 0.5 * lane_sum(lanes.u);
+      vir[tid] << lane_sum(lanes.wxx), lane_sum(lanes.wyy), lane_sum(lanes.wzz),
+          lane_sum(lanes.wxy), lane_sum(lanes.wxz), lane_sum(lanes.wyz);
+      contacts[tid] = lanes.contacts;
+      {
+        // This range's forces are final (no thread writes another's rows): their squared sum,
+        // and the copy to the result or the drift.
+        double f2 = 0.0;
+        if (drift) {
+          double* x = moved;
+          double* y = moved + n;
+          double* z = moved + 2 * n;
+          for (std::size_t i = lo; i < hi; ++i) {
+            const double gx = frc[4 * i], gy = frc[4 * i + 1], gz = frc[4 * i + 2];
+            f2 += gx * gx + gy * gy + gz * gz;
+            drift->apply(x[i], y[i], z[i], gx, gy, gz);
+          }
+        } else {
+          for (std::size_t i = lo; i < hi; ++i) {
+            fx[i] = frc[4 * i];
+            fy[i] = frc[4 * i + 1];
+            fz[i] = frc[4 * i + 2];
+            f2 += fx[i] * fx[i] + fy[i] * fy[i] + fz[i] * fz[i];
+          }
+        }
+        squared[tid] = f2;
+      }
     }
-    squared[tid] = f2;
   }
 
   sums.finish(out, have_ref);
+  return holds;
 }
 #else
-void ForceField::compute_harmonic_vector(const State& state, const NeighbourList& list,
-                                         ForceResult& out) const {
+bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList& list,
+                                         ForceResult& out, const Drift*, double*) const {
   compute_impl(HarmonicPair{}, state, list, out);  // not reached: vector_kernel() is false
+  return true;
 }
 #endif
 

@@ -32,6 +32,22 @@ struct DeferredForce {
   double fx, fy, fz;
 };
 
+// The particle drift of an explicit Euler step in scaled coordinates, s += D F, with
+// D = h_new^-1 dt / xi_s (upper triangular, as h is). One definition, so that the drift fused
+// into the force pass and the separate one give the same bits.
+struct Drift {
+  double xx, xy, yy, zz;
+  static Drift of(const Eigen::Matrix3d& h_inv, double dt_over_xi) {
+    return {h_inv(0, 0) * dt_over_xi, h_inv(0, 1) * dt_over_xi, h_inv(1, 1) * dt_over_xi,
+            h_inv(2, 2) * dt_over_xi};
+  }
+  void apply(double& x, double& y, double& z, double fx, double fy, double fz) const {
+    x += xx * fx + xy * fy;
+    y += yy * fy;
+    z += zz * fz;
+  }
+};
+
 class ForceField {
  public:
   // alpha_r in [1.2, 3]; threads <= 0 means all OpenMP threads available.
@@ -45,6 +61,12 @@ class ForceField {
   // use_portable_kernel(true), the portable blocked kernel. Both give the same forces up to
   // round-off (tested).
   void compute(const State& state, const NeighbourList& list, ForceResult& out) const;
+  // compute() and then, in the same pass, drift.apply() to every particle with its force
+  // (explicit Euler), provided the inner list holds for the state; the forces themselves are
+  // not kept (out.force is left empty). Returns false, with the state untouched and
+  // out.max_drift2 set, when the list no longer holds: renew it and call again.
+  bool compute_and_drift(State& state, const NeighbourList& list, ForceResult& out,
+                         const Drift& drift) const;
   // True when compute() takes the vector kernel for a system of n particles.
   bool vector_kernel(std::size_t n) const;
   void use_portable_kernel(bool portable) { portable_ = portable; }
@@ -60,8 +82,10 @@ class ForceField {
   template <class Pair>
   void compute_impl(const Pair& pair, const State& state, const NeighbourList& list,
                     ForceResult& out) const;
-  void compute_harmonic_vector(const State& state, const NeighbourList& list,
-                               ForceResult& out) const;
+  // With `drift` (and `moved`, the state's own positions), only if the inner list holds for
+  // the state: then drifts the particles and returns true; see compute_and_drift.
+  bool compute_harmonic_vector(const State& state, const NeighbourList& list, ForceResult& out,
+                               const Drift* drift = nullptr, double* moved = nullptr) const;
   // After the barrier: adds every thread's deferred forces on particles in [lo, hi), in thread
   // order, through add(j, fx, fy, fz).
   template <class Add>
@@ -96,6 +120,12 @@ class ForceField {
       }
       deferred = 0;
     }
+    // The vector kernel's imported pairs for the range [lo, hi): inner-list pairs whose owner is
+    // outside the range and whose partner is inside, kept until the list or the range changes.
+    std::vector<std::uint32_t> import_owner, import_entries;
+    std::uint64_t import_generation = 0;
+    std::size_t import_lo = 0, import_hi = 0;
+    void import_pairs(const NeighbourList& list, std::size_t lo, std::size_t hi);
     void resize(std::size_t m) {
       if (i.size() >= m)
         return;
@@ -113,7 +143,7 @@ class ForceField {
   mutable std::vector<ContactScratch> scratch_;
   // Vector kernel: rows of 4 doubles per particle (position, radius / force), 64-byte
   // aligned inside the vectors, plus one idle row per thread for padding lanes.
-  mutable std::vector<double> rows_pos_, rows_force_;
+  mutable std::vector<double> rows_;
 };
 
 }  // namespace jamflow

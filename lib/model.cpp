@@ -18,6 +18,7 @@ Model::Model(State state, const ModelOptions& options)
   if (state_.size() < 2)
     throw ConfigError("[system] N must be at least 2");
   particle_volume_ = state_.particle_volume();
+  field_.use_portable_kernel(options.portable_kernel);
 }
 
 void Model::reset_state(State state) {
@@ -54,6 +55,31 @@ const Evaluation& Model::evaluate() {
     refresh_list();
     field_.compute(state_, list_, eval_.forces);
   }
+  observe();
+  fresh_ = true;
+  return eval_;
+}
+
+const Evaluation& Model::evaluate_and_drift(const Drift& drift) {
+  if (!list_.built() || list_.inner_reference().size() != state_.pos.size())
+    refresh_list();
+  if (!field_.compute_and_drift(state_, list_, eval_.forces, drift)) {
+    // The list no longer holds (or a position is not finite): renew it and repeat; the
+    // second pass stops only for a non-finite state, which evaluate() then reports.
+    refresh_list();
+    if (!field_.compute_and_drift(state_, list_, eval_.forces, drift)) {
+      fresh_ = false;
+      evaluate();
+      throw IntegrationError("the neighbour list does not hold after a rebuild at t = " +
+                             std::to_string(state_.time));
+    }
+  }
+  observe();
+  fresh_ = false;  // the state has moved on
+  return eval_;
+}
+
+void Model::observe() {
   ++evaluations_;
   const double v = state_.box.volume();
   const Eigen::Matrix3d& w = eval_.forces.virial;
@@ -67,8 +93,6 @@ const Evaluation& Model::evaluate() {
     throw IntegrationError("forces became non-finite at t = " + std::to_string(state_.time) +
                            " (energy " + std::to_string(eval_.forces.energy) + ")");
   }
-  fresh_ = true;
-  return eval_;
 }
 
 bool Model::prepare_step() {

@@ -32,6 +32,8 @@ struct ModelOptions {
   // Reorder particles by cell every this many list rebuilds (0 = never). Reordering only
   // happens in prepare_step(), never inside a right-hand-side evaluation.
   int sort_every = 20;
+  // Use the portable force kernel even where the vector one is available (comparisons).
+  bool portable_kernel = false;
 };
 
 class Model {
@@ -45,6 +47,11 @@ class Model {
 
   // Forces and observables of the current configuration (computed once, then cached).
   const Evaluation& evaluate();
+  // The particle drift of an explicit Euler step fused into the force pass: the observables of
+  // the current configuration are evaluated and every particle then moves by s += D F (the
+  // cell is not touched). Gives the same state, bit for bit, as evaluate() followed by the
+  // drift with the evaluation's forces, but the returned evaluation holds no forces.
+  const Evaluation& evaluate_and_drift(const Drift& drift);
 
   // Mutable access to the state. Call touch() after changing positions or the cell.
   State& mutable_state() { return state_; }
@@ -62,6 +69,7 @@ class Model {
 
  private:
   void refresh_list();
+  void observe();  // eval_'s observables from its forces
   void sort_particles();
 
   State state_;

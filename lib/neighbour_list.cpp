@@ -4,7 +4,9 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <string>
 
@@ -230,6 +232,8 @@ void NeighbourList::refresh_inner(const State& state, int threads) {
   inner_ref_pos_ = state.pos;
   inner_h_ref_inv_ = state.box.h_inv();
   ++inner_builds_;
+  static std::atomic<std::uint64_t> generations{0};
+  inner_generation_ = ++generations;
 }
 
 void NeighbourList::build_all_pairs(const State& state) {
@@ -290,19 +294,28 @@ NeighbourList::Drift NeighbourList::drift(const State& state, const std::vector<
   return {std::sqrt(d2max), smallest_stretch(state.box.h() * h_ref_inv)};
 }
 
+double NeighbourList::allowed_drift(double sigma_min, double skin, double margin) const {
+  // sigma_min (a + skin) - 2 d_max >= a + margin is linear in a: the extreme diameters decide.
+  double allowed = std::numeric_limits<double>::infinity();
+  for (double a : {a_min_, a_max_})
+    allowed = std::min(allowed, 0.5 * (sigma_min * (a + skin) - a - margin));
+  return allowed;
+}
+
 bool NeighbourList::holds(const Drift& d, double skin, double margin) const {
-  // Linear in a, so the extreme diameters decide.
-  for (double a : {a_min_, a_max_}) {
-    if (d.sigma_min * (a + skin) - 2.0 * d.d_max < a + margin)
-      return false;
-  }
-  return true;
+  // True for a NaN displacement, as the bound cannot be decided: the force pass that follows
+  // reports the non-finite state (rebuilding from NaN positions could not).
+  return !(d.d_max > allowed_drift(d.sigma_min, skin, margin));
+}
+
+double NeighbourList::inner_drift_allowed(const State& state) const {
+  if (!built_ || inner_ref_pos_.size() != state.pos.size())
+    return -std::numeric_limits<double>::infinity();
+  return allowed_drift(smallest_stretch(state.box.h() * inner_h_ref_inv_), inner_skin_, 0.0);
 }
 
 bool NeighbourList::inner_holds(const State& state, double max_drift) const {
-  if (!built_ || inner_ref_pos_.size() != state.pos.size() || !std::isfinite(max_drift))
-    return false;
-  return holds({max_drift, smallest_stretch(state.box.h() * inner_h_ref_inv_)}, inner_skin_, 0.0);
+  return std::isfinite(max_drift) && max_drift <= inner_drift_allowed(state);
 }
 
 NeighbourList::Status NeighbourList::status(const State& state, int threads) const {

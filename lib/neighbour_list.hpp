@@ -58,6 +58,10 @@ class NeighbourList {
   // The inner bound for a known largest displacement since inner_reference() (e.g. measured
   // by the force pass); false also for a non-finite one, or when never built.
   bool inner_holds(const State& state, double max_drift) const;
+  // The largest displacement since inner_reference() for which the inner list still holds in
+  // the current cell (-inf when never built for this state): inner_holds(state, d) is
+  // d <= inner_drift_allowed(state).
+  double inner_drift_allowed(const State& state) const;
   const std::vector<double>& inner_reference() const { return inner_ref_pos_; }
   // Largest squared displacement of particles [lo, hi) since `ref` (SoA scaled, as State::pos),
   // in real space of the current cell; NaN if a position is not finite. Both list checks and
@@ -81,7 +85,10 @@ class NeighbourList {
 
   std::size_t builds() const { return builds_; }              // outer (full) builds
   std::size_t inner_builds() const { return inner_builds_; }  // inner selections, all
-  std::size_t max_row() const { return max_row_; }            // longest inner row of one particle
+  // Identifies the current inner list among all lists of the process (new at every selection),
+  // so that data derived from it can be cached.
+  std::uint64_t inner_generation() const { return inner_generation_; }
+  std::size_t max_row() const { return max_row_; }  // longest inner row of one particle
   std::size_t pairs() const { return entries_.size(); }
   std::size_t inner_pairs() const { return inner_entries_.size(); }
 
@@ -98,10 +105,13 @@ class NeighbourList {
               int threads) const;
   // Every pair farther than a + margin when listed at `skin` still is beyond a + margin.
   bool holds(const Drift& d, double skin, double margin) const;
+  // The largest d_max for which holds() is true, given sigma_min.
+  double allowed_drift(double sigma_min, double skin, double margin) const;
 
   double skin_, inner_skin_;
   bool built_ = false;
   std::size_t builds_ = 0, inner_builds_ = 0;
+  std::uint64_t inner_generation_ = 0;
   std::vector<std::uint32_t> start_, entries_;
   std::vector<std::uint32_t> inner_start_, inner_entries_, inner_owner_;
   std::vector<double> ref_pos_, inner_ref_pos_;
