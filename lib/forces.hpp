@@ -141,8 +141,9 @@ class ForceField {
   int threads_;
   bool portable_ = false;
   mutable std::vector<ContactScratch> scratch_;
-  // Vector kernel: rows of 4 doubles per particle (position, radius / force), 64-byte
-  // aligned inside the vectors, plus one idle row per thread for padding lanes.
+  // Vector kernel: rows of 4 doubles per particle (position, radius / force), plus the spare
+  // rows of each thread; position and force rows share this buffer (see
+  // compute_harmonic_vector).
   mutable std::vector<double> rows_;
 };
 
