@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <string>
 
@@ -40,33 +41,46 @@ Eigen::Vector3i bins_for(const Box& box, double reach) {
   return n;
 }
 
-// Fills a CSR list row by row: row(i, out) appends the entries of row i to out. Threads take
-// contiguous ranges of rows into their own buffers, joined in order afterwards, so the result
-// does not depend on the thread count.
-template <class Row>
+// Fills a CSR list row by row: row(i, dst) writes the entries of row i to dst, at most
+// bound(i) of them, and returns their count. Threads take contiguous ranges of rows into their
+// own buffers, joined in order afterwards, so the result does not depend on the thread count.
+// A row writes through a plain pointer, not push_back: the vector's end pointer, stored at
+// every entry, would otherwise make the compiler reload every captured pointer per candidate
+// (they may alias), which cost several times the distance test itself.
+template <class Bound, class Row>
 void fill_rows(std::size_t n, int threads, std::vector<std::uint32_t>& start,
-               std::vector<std::uint32_t>& entries, const Row& row) {
+               std::vector<std::uint32_t>& entries, const Bound& bound, const Row& row) {
   start.assign(n + 1, 0);
   const int nt = std::max(1, std::min(threads, int(n / 1024) + 1));  // small n: one thread
-  std::vector<std::vector<std::uint32_t>> parts(nt);
+  std::vector<std::unique_ptr<std::uint32_t[]>> parts(nt);
+  std::vector<std::size_t> used(nt, 0);
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
     const std::size_t t = std::size_t(omp_get_thread_num());
     const std::size_t m = std::size_t(omp_get_num_threads());
     const std::size_t lo = n * t / m, hi = n * (t + 1) / m;
-    std::vector<std::uint32_t>& out = parts[t];
-    out.reserve(8 * (hi - lo));
+    std::size_t capacity = 8 * (hi - lo) + 64, size = 0;
+    auto out = std::make_unique_for_overwrite<std::uint32_t[]>(capacity);
     for (std::size_t i = lo; i < hi; ++i) {
-      const std::size_t before = out.size();
-      row(i, out);
-      start[i + 1] = static_cast<std::uint32_t>(out.size() - before);
+      const std::size_t b = bound(i);
+      if (capacity < size + b) {
+        capacity = std::max(2 * capacity, size + b);
+        auto grown = std::make_unique_for_overwrite<std::uint32_t[]>(capacity);
+        std::copy(out.get(), out.get() + size, grown.get());
+        out = std::move(grown);
+      }
+      const std::size_t count = row(i, out.get() + size);
+      start[i + 1] = static_cast<std::uint32_t>(count);
+      size += count;
     }
+    parts[t] = std::move(out);
+    used[t] = size;
   }
   std::partial_sum(start.begin(), start.end(), start.begin());
-  entries.clear();
-  entries.reserve(start[n]);
-  for (const auto& part : parts)
-    entries.insert(entries.end(), part.begin(), part.end());
+  entries.resize(start[n]);
+  std::uint32_t* dst = entries.data();
+  for (int t = 0; t < nt; ++t)
+    dst = std::copy(parts[t].get(), parts[t].get() + used[t], dst);
 }
 
 // sigma_min(m): the least a unit vector can be stretched by the affine map m.
@@ -158,37 +172,60 @@ void NeighbourList::build(const State& state, int threads) {
     const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
     const double t = state.box.tilt();
     const double* d = state.diameter.data();
-    fill_rows(n, threads, start_, entries_, [&](std::size_t i, std::vector<std::uint32_t>& out) {
-      const int c = int(cell_of[i]);
-      const int cz = c % nb[2], cy = (c / nb[2]) % nb[1], cx = c / (nb[2] * nb[1]);
-      // Scaled coordinates are periodic in the unit cube whatever the tilt (the Lees–Edwards
-      // offset lives in h), so the 27 surrounding bins hold every partner within reach.
-      std::array<std::uint32_t, 27> neigh_cells;
+    const std::uint32_t* cs = cell_start.data();
+    const std::uint32_t* mem = members.data();
+    const std::uint32_t* cell_index = cell_of.data();
+    const int nbx = nb[0], nby = nb[1], nbz = nb[2];
+    const double skin = skin_;
+    // Scaled coordinates are periodic in the unit cube whatever the tilt (the Lees–Edwards
+    // offset lives in h), so the 27 surrounding bins hold every partner within reach.
+    const auto neighbours = [=](std::size_t i, std::uint32_t* cells) {
+      const int c = int(cell_index[i]);
+      const int cz = c % nbz, cy = (c / nbz) % nby, cx = c / (nbz * nby);
       int nc = 0;
       for (int dx = -1; dx <= 1; ++dx) {
-        const int xw = (cx + dx + nb[0]) % nb[0];
+        const int xw = (cx + dx + nbx) % nbx;
         for (int dy = -1; dy <= 1; ++dy) {
-          const int yw = (cy + dy + nb[1]) % nb[1];
+          const int yw = (cy + dy + nby) % nby;
           for (int dz = -1; dz <= 1; ++dz) {
-            const int zw = (cz + dz + nb[2]) % nb[2];
-            neigh_cells[nc++] = std::uint32_t((xw * nb[1] + yw) * nb[2] + zw);
+            const int zw = (cz + dz + nbz) % nbz;
+            cells[nc++] = std::uint32_t((xw * nby + yw) * nbz + zw);
           }
         }
       }
-      for (std::uint32_t cell : neigh_cells) {
-        for (std::uint32_t k = cell_start[cell]; k < cell_start[cell + 1]; ++k) {
-          const std::uint32_t j = members[k];
-          if (j <= i)
-            continue;
-          double dx = sx[i] - sx[j], dy = sy[i] - sy[j], dz = sz[i] - sz[j];
+    };
+    const auto bound = [=](std::size_t i) {
+      std::uint32_t cells[27];
+      neighbours(i, cells);
+      std::size_t b = 0;
+      for (std::uint32_t cell : cells)
+        b += cs[cell + 1] - cs[cell];
+      return b;
+    };
+    const auto row = [=](std::size_t i, std::uint32_t* dst) {
+      std::uint32_t cells[27];
+      neighbours(i, cells);
+      const double xi = sx[i], yi = sy[i], zi = sz[i], di = d[i];
+      std::size_t m = 0;
+      for (std::uint32_t cell : cells) {
+        // Members of a bin are in increasing order: a bin with none above i is skipped whole
+        // (with the cell-ordered memory layout, a fixed pattern the branch predictor learns).
+        const std::uint32_t k0 = cs[cell], k1 = cs[cell + 1];
+        if (k0 == k1 || mem[k1 - 1] <= i)
+          continue;
+        for (std::uint32_t k = k0; k < k1; ++k) {
+          const std::uint32_t j = mem[k];
+          double dx = xi - sx[j], dy = yi - sy[j], dz = zi - sz[j];
           const std::uint32_t code = image_code(dx, dy, dz, t);
           const double rx = hxx * dx + hxy * dy, ry = hyy * dy, rz = hzz * dz;
-          const double cut = 0.5 * (d[i] + d[j]) + skin_;
-          if (rx * rx + ry * ry + rz * rz < cut * cut)
-            out.push_back((j << kCodeBits) | code);
+          const double cut = 0.5 * (di + d[j]) + skin;
+          dst[m] = (j << kCodeBits) | code;  // kept only if it counts (no branch)
+          m += (j > i && rx * rx + ry * ry + rz * rz < cut * cut) ? 1 : 0;
         }
       }
-    });
+      return m;
+    };
+    fill_rows(n, threads, start_, entries_, bound, row);
   }
 
   ref_pos_ = state.pos;
@@ -206,22 +243,29 @@ void NeighbourList::refresh_inner(const State& state, int threads) {
   const double* sy = state.y();
   const double* sz = state.z();
   const double* d = state.diameter.data();
-  const auto& shift = shifts();
-  fill_rows(n, threads, inner_start_, inner_entries_,
-            [&](std::size_t i, std::vector<std::uint32_t>& out) {
-              for (std::uint32_t k = start_[i]; k < start_[i + 1]; ++k) {
-                const std::uint32_t e = entries_[k];
-                const std::uint32_t j = e >> kCodeBits;
-                const auto& sh = shift[e & kCodeMask];
-                const double dx = sx[i] - sx[j] + sh[0];
-                const double dy = sy[i] - sy[j] + sh[1];
-                const double dz = sz[i] - sz[j] + sh[2];
-                const double rx = hxx * dx + hxy * dy, ry = hyy * dy, rz = hzz * dz;
-                const double cut = 0.5 * (d[i] + d[j]) + inner_skin_;
-                if (rx * rx + ry * ry + rz * rz < cut * cut)
-                  out.push_back(e);
-              }
-            });
+  const std::uint32_t* outer_start = start_.data();
+  const std::uint32_t* outer = entries_.data();
+  const std::array<double, 3>* shift = shifts().data();
+  const double inner_skin = inner_skin_;
+  const auto bound = [=](std::size_t i) { return outer_start[i + 1] - outer_start[i]; };
+  const auto row = [=](std::size_t i, std::uint32_t* dst) {
+    const double xi = sx[i], yi = sy[i], zi = sz[i], di = d[i];
+    std::size_t m = 0;
+    for (std::uint32_t k = outer_start[i]; k < outer_start[i + 1]; ++k) {
+      const std::uint32_t e = outer[k];
+      const std::uint32_t j = e >> kCodeBits;
+      const auto& sh = shift[e & kCodeMask];
+      const double dx = xi - sx[j] + sh[0];
+      const double dy = yi - sy[j] + sh[1];
+      const double dz = zi - sz[j] + sh[2];
+      const double rx = hxx * dx + hxy * dy, ry = hyy * dy, rz = hzz * dz;
+      const double cut = 0.5 * (di + d[j]) + inner_skin;
+      dst[m] = e;
+      m += (rx * rx + ry * ry + rz * rz < cut * cut) ? 1 : 0;
+    }
+    return m;
+  };
+  fill_rows(n, threads, inner_start_, inner_entries_, bound, row);
   inner_owner_.resize(inner_entries_.size());
   max_row_ = 0;
   for (std::size_t i = 0; i < n; ++i) {
