@@ -363,6 +363,61 @@ struct VectorSums {
   std::size_t contacts;
 };
 
+// The rows of particles [lo, hi): (h s, a) from the scaled SoA positions s, four particles per
+// transpose, with their force rows zeroed; in the same pass, the largest squared real-space
+// displacement since `ref` (SoA scaled), NaN if a position is not finite (as
+// NeighbourList::max_displacement2). One pass over the positions instead of three loops.
+double lay_out_rows(const double* s, const double* ref, const double* diameter, std::size_t n,
+                    const Eigen::Matrix3d& h, std::size_t lo, std::size_t hi, double* pos,
+                    double* frc) {
+  const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
+  const __m256d vxx = _mm256_set1_pd(hxx), vxy = _mm256_set1_pd(hxy), vyy = _mm256_set1_pd(hyy),
+                vzz = _mm256_set1_pd(hzz), half = _mm256_set1_pd(0.5), zero = _mm256_setzero_pd();
+  __m256d m = zero, sum = zero;
+  std::size_t i = lo;
+  for (; i + 4 <= hi; i += 4) {
+    const __m256d x = _mm256_loadu_pd(s + i), y = _mm256_loadu_pd(s + n + i),
+                  z = _mm256_loadu_pd(s + 2 * n + i);
+    const __m256d q[4] = {_mm256_fmadd_pd(vxy, y, _mm256_mul_pd(vxx, x)), _mm256_mul_pd(vyy, y),
+                          _mm256_mul_pd(vzz, z),
+                          _mm256_mul_pd(half, _mm256_loadu_pd(diameter + i))};
+    __m256d r0, r1, r2, r3;
+    transpose4(q, r0, r1, r2, r3);
+    _mm256_store_pd(pos + 4 * i, r0);
+    _mm256_store_pd(pos + 4 * i + 4, r1);
+    _mm256_store_pd(pos + 4 * i + 8, r2);
+    _mm256_store_pd(pos + 4 * i + 12, r3);
+    for (int k = 0; k < 4; ++k)
+      _mm256_store_pd(frc + 4 * i + 4 * k, zero);
+    const __m256d ux = _mm256_sub_pd(x, _mm256_loadu_pd(ref + i)),
+                  uy = _mm256_sub_pd(y, _mm256_loadu_pd(ref + n + i)),
+                  uz = _mm256_sub_pd(z, _mm256_loadu_pd(ref + 2 * n + i));
+    const __m256d rx = _mm256_fmadd_pd(vxy, uy, _mm256_mul_pd(vxx, ux)),
+                  ry = _mm256_mul_pd(vyy, uy), rz = _mm256_mul_pd(vzz, uz);
+    const __m256d d2 = _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
+    m = _mm256_max_pd(d2, m);  // a NaN never wins the max, but it poisons the sum
+    sum = _mm256_add_pd(sum, d2);
+  }
+  alignas(32) double lanes[4];
+  _mm256_store_pd(lanes, m);
+  double mx = std::max(std::max(lanes[0], lanes[1]), std::max(lanes[2], lanes[3]));
+  double total = lane_sum(sum);
+  for (; i < hi; ++i) {
+    const double x = s[i], y = s[n + i], z = s[2 * n + i];
+    pos[4 * i] = std::fma(hxy, y, hxx * x);
+    pos[4 * i + 1] = hyy * y;
+    pos[4 * i + 2] = hzz * z;
+    pos[4 * i + 3] = 0.5 * diameter[i];
+    std::fill(frc + 4 * i, frc + 4 * i + 4, 0.0);
+    const double ux = x - ref[i], uy = y - ref[n + i], uz = z - ref[2 * n + i];
+    const double rx = std::fma(hxy, uy, hxx * ux), ry = hyy * uy, rz = hzz * uz;
+    const double d2 = std::fma(rz, rz, std::fma(ry, ry, rx * rx));
+    mx = d2 > mx ? d2 : mx;
+    total += d2;
+  }
+  return std::isfinite(total) ? mx : std::nan("");
+}
+
 // Which forces a pass over pairs applies (see compute_harmonic_vector).
 enum class PairMode {
   kAll,       // one thread: both forces of every pair
@@ -498,7 +553,10 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
                                          ForceResult& out, const Drift* drift,
                                          double* moved) const {
   const std::size_t n = state.size();
-  out.force.resize(3 * n);
+  // A drifting pass keeps no forces: sizing the result would zero 24 bytes per particle for
+  // nothing (its caller leaves it empty).
+  if (!drift)
+    out.force.resize(3 * n);
   const int nt = threads_;
   if (int(scratch_.size()) < nt)
     scratch_.resize(nt);
@@ -522,10 +580,6 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
     shift[4 * c + 2] = hzz * sh[2];
     shift[4 * c + 3] = 0.0;
   }
-  const double* sx = state.x();
-  const double* sy = state.y();
-  const double* sz = state.z();
-  const double* d = state.diameter.data();
   const std::uint32_t* start = list.inner_start().data();
   const std::uint32_t* entries = list.inner_entries().data();
   const std::uint32_t* owner = list.inner_owner().data();
@@ -534,9 +588,7 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
   auto& [energy, vir, contacts, squared, drift2] = sums;
   const bool have_ref = list.inner_reference().size() == state.pos.size();
   const double* ref = list.inner_reference().data();
-  double* fx = out.force.data();
-  double* fy = fx + n;
-  double* fz = fy + n;
+  double* fx = out.force.data();  // empty with a drift
   const std::size_t blocks = (n + kBlock - 1) / kBlock;
   // With a drift, the pass goes on only if the list holds; every thread decides the same.
   const double allowed = drift ? list.inner_drift_allowed(state) : 0.0;
@@ -550,15 +602,9 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
     const std::size_t b1 = first_block(start, n, blocks, tid + 1, nthr);
     const std::size_t lo = std::min(n, b0 * kBlock), hi = std::min(n, b1 * kBlock);
     const std::size_t idle = n + kSpareRows * std::size_t(tid);
-    for (std::size_t i = lo; i < hi; ++i) {
-      pos[4 * i] = hxx * sx[i] + hxy * sy[i];
-      pos[4 * i + 1] = hyy * sy[i];
-      pos[4 * i + 2] = hzz * sz[i];
-      pos[4 * i + 3] = 0.5 * d[i];
-    }
-    if (have_ref)
-      drift2[tid] = NeighbourList::max_displacement2(state, ref, lo, hi);
-    std::fill(frc + 4 * lo, frc + 4 * hi, 0.0);
+    // Without a reference the displacement is not used (finish() reports it as infinite).
+    drift2[tid] = lay_out_rows(state.pos.data(), have_ref ? ref : state.pos.data(),
+                               state.diameter.data(), n, h, lo, hi, pos, frc);
     // The idle row: radius 0 at the origin, so a padding pair (idle, idle) never touches.
     std::fill(pos + 4 * idle, pos + 4 * (idle + kSpareRows), 0.0);
     std::fill(frc + 4 * idle, frc + 4 * (idle + kSpareRows), 0.0);
@@ -611,6 +657,8 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
             drift->apply(x[i], y[i], z[i], gx, gy, gz);
           }
         } else {
+          double* fy = fx + n;
+          double* fz = fy + n;
           for (std::size_t i = lo; i < hi; ++i) {
             fx[i] = frc[4 * i];
             fy[i] = frc[4 * i + 1];

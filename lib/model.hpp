@@ -68,7 +68,9 @@ class Model {
   std::size_t force_evaluations() const { return evaluations_; }
 
  private:
-  void refresh_list();
+  // Renews the lists as status() says; with `renew`, the force pass found that the inner list
+  // no longer holds, so it is renewed even if status() calls it valid.
+  void refresh_list(bool renew = false);
   void observe();  // eval_'s observables from its forces
   void sort_particles();
 
