@@ -7,7 +7,9 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <stdexcept>
 #include <string>
+#include <utility>
 
 #if defined(__AVX512F__) && defined(__AVX512VL__)
 #include <immintrin.h>
@@ -32,40 +34,13 @@ ForceField::ForceField(double alpha_r, int threads)
 }
 
 // Spare rows per thread after the n particle rows of the vector kernel: the idle row (padding
-// lanes) and, with it, one row per lane for the forces a kOwned pass does not apply.
+// lanes) and three more, so that a thread's spare rows fill whole cache lines.
 constexpr std::size_t kSpareRows = 4;
 
 bool ForceField::vector_kernel(std::size_t n) const {
   // Row byte offsets (row << 5) must fit 32 bits, spare rows included.
   return JAMFLOW_VECTOR_KERNEL && harmonic_ && !portable_ &&
          n + kSpareRows * std::size_t(threads_) < (std::size_t(1) << 27);
-}
-
-void ForceField::ContactScratch::import_pairs(const NeighbourList& list, std::size_t lo,
-                                              std::size_t hi) {
-  if (import_generation == list.inner_generation() && import_lo == lo && import_hi == hi)
-    return;
-  import_owner.clear();
-  import_entries.clear();
-  const std::uint32_t* start = list.inner_start().data();
-  const std::uint32_t* entries = list.inner_entries().data();
-  const std::size_t n = list.inner_start().size() - 1;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (i == lo)
-      i = hi;  // owners outside [lo, hi) only
-    if (i >= n)
-      break;
-    for (std::uint32_t k = start[i]; k < start[i + 1]; ++k) {
-      const std::size_t j = entries[k] >> NeighbourList::kCodeBits;
-      if (j >= lo && j < hi) {
-        import_owner.push_back(std::uint32_t(i));
-        import_entries.push_back(entries[k]);
-      }
-    }
-  }
-  import_generation = list.inner_generation();
-  import_lo = lo;
-  import_hi = hi;
 }
 
 void ForceField::compute(const State& state, const NeighbourList& list, ForceResult& out) const {
@@ -174,6 +149,42 @@ struct ThreadSums {
 }
 
 }  // namespace
+
+void ForceField::ContactScratch::ghost_lists(const NeighbourList& list, int tid, int nthr) {
+  if (ghost_generation == list.inner_generation() && ghost_threads == nthr)
+    return;
+  const std::uint32_t* start = list.inner_start().data();
+  const std::uint32_t* entries = list.inner_entries().data();
+  const std::size_t n = list.inner_start().size() - 1, blocks = (n + kBlock - 1) / kBlock;
+  const auto range = [&](int t) {
+    return std::pair{std::min(n, first_block(start, n, blocks, t, nthr) * kBlock),
+                     std::min(n, first_block(start, n, blocks, t + 1, nthr) * kBlock)};
+  };
+  const auto [lo, hi] = range(tid);
+  // The half list keeps each pair at its lower index, so a partner never lies in an earlier
+  // range: the ghosts of thread t belong to later threads only. Checked, as a force written to a
+  // ghost row that no thread adds would be lost.
+  for (std::uint32_t k = start[lo]; k < start[hi]; ++k) {
+    if ((entries[k] >> NeighbourList::kCodeBits) < lo)
+      throw std::logic_error("neighbour list: a partner precedes its owner's range");
+  }
+  ghost_rows.clear();
+  ghost_start.assign(1, 0);
+  for (int t = 0; t < tid; ++t) {
+    const auto [tlo, thi] = range(t);
+    const std::size_t first = ghost_rows.size();
+    for (std::uint32_t k = start[tlo]; k < start[thi]; ++k) {
+      const std::uint32_t j = entries[k] >> NeighbourList::kCodeBits;
+      if (j >= lo && j < hi)
+        ghost_rows.push_back(j);
+    }
+    std::sort(ghost_rows.begin() + first, ghost_rows.end());
+    ghost_rows.erase(std::unique(ghost_rows.begin() + first, ghost_rows.end()), ghost_rows.end());
+    ghost_start.push_back(std::uint32_t(ghost_rows.size()));
+  }
+  ghost_generation = list.inner_generation();
+  ghost_threads = nthr;
+}
 
 template <class Pair>
 void ForceField::compute_impl(const Pair& pair, const State& state, const NeighbourList& list,
@@ -420,22 +431,20 @@ double lay_out_rows(const double* s, const double* ref, const double* diameter, 
 
 // Which forces a pass over pairs applies (see compute_harmonic_vector).
 enum class PairMode {
-  kAll,       // one thread: both forces of every pair
-  kOwned,     // the pairs of owners in [lo, hi); a partner outside gets no force here
-  kImported,  // pairs of earlier owners with partners in [lo, hi): the partner's force only
+  kAll,    // one thread: both forces of every pair
+  kOwned,  // the pairs of owners in [lo, hi); a partner outside gets its force in a ghost row
 };
 
-// Pairs [k0, k1) of `owner`/`entries`: pair law, energy, virial and forces into the rows.
-// kImported adds no energy, virial or contacts (the owner's thread counts the pair). Padding
-// lanes use the thread's idle row, whose radius is 0, so a padding pair never touches; the
-// thread's four spare rows (idle, idle + 1, ...) take the forces kOwned does not apply.
+// Pairs [k0, k1) of `owner`/`entries`: pair law, energy, virial and forces into the rows (kOwned:
+// a partner outside [lo, hi) into the same row of `ghost` instead). Padding lanes use the
+// thread's idle row, whose radius is 0, so a padding pair never touches.
 //
 // The loop is latency-bound (a chunk's loads, square root and division form a chain of about
 // a hundred cycles), so it is software-pipelined: the rows of chunk c + 1 are loaded while
 // chunk c is evaluated, and 1/r comes from a 14-bit estimate refined by two Newton steps
 // (relative error ~1e-16) rather than a square root followed by a division.
 template <PairMode Mode>
-VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
+VectorSums vector_pairs(const double* pos, const double* shift, double* frc, double* ghost,
                         const std::uint32_t* owner, const std::uint32_t* entries, std::size_t k0,
                         std::size_t k1, std::size_t lo, std::size_t hi, std::size_t idle) {
   constexpr unsigned kBits = NeighbourList::kCodeBits;
@@ -444,6 +453,7 @@ VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
   const char* prow = reinterpret_cast<const char*>(pos);
   const char* srow = reinterpret_cast<const char*>(shift);
   char* frow = reinterpret_cast<char*>(frc);
+  char* grow = reinterpret_cast<char*>(ghost);
   const std::size_t lo_off = lo << kBits, span = (hi - lo) << kBits;
   const std::size_t idle_off = idle << kBits;
   const __m256d one = _mm256_set1_pd(1.0), half = _mm256_set1_pd(0.5),
@@ -471,8 +481,7 @@ VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
     transpose4(d, rx, ry, rz, a);
     const __m256d r2 = _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
     const __mmask8 touch = _mm256_cmp_pd_mask(r2, _mm256_mul_pd(a, a), _CMP_LT_OQ);
-    if constexpr (Mode != PairMode::kImported)
-      nc += std::size_t(__builtin_popcount(touch));
+    nc += std::size_t(__builtin_popcount(touch));
     // 1/r for every lane (padding lanes give inf or NaN, masked below).
     const __m256d h = _mm256_mul_pd(half, r2);
     __m256d s = _mm256_rsqrt14_pd(r2);
@@ -483,7 +492,7 @@ VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
     const __m256d delta =
         _mm256_maskz_mov_pd(touch, _mm256_fnmadd_pd(_mm256_mul_pd(r2, s), inv_a, one));
     const __m256d f_over_r = _mm256_maskz_mul_pd(touch, _mm256_mul_pd(delta, inv_a), s);
-    if constexpr (Mode != PairMode::kImported) {
+    {
       const __m256d gx = _mm256_mul_pd(f_over_r, rx), gy = _mm256_mul_pd(f_over_r, ry),
                     gz = _mm256_mul_pd(f_over_r, rz);
       u = _mm256_fmadd_pd(delta, delta, u);
@@ -501,14 +510,12 @@ VectorSums vector_pairs(const double* pos, const double* shift, double* frc,
                           _mm256_maskz_mul_pd(0x7, _mm256_permute4x64_pd(f_over_r, 0xFF), d[3])};
     for (int l = 0; l < 4; ++l) {
       const std::size_t io = std::size_t(own[l]) << kBits, jo = ent[l] & ~kCode;
-      if constexpr (Mode != PairMode::kImported) {
-        double* fi = reinterpret_cast<double*>(frow + io);
-        _mm256_store_pd(fi, _mm256_add_pd(_mm256_load_pd(fi), g[l]));
-      }
-      std::size_t jt = jo;
+      double* fi = reinterpret_cast<double*>(frow + io);
+      _mm256_store_pd(fi, _mm256_add_pd(_mm256_load_pd(fi), g[l]));
+      char* base = frow;
       if constexpr (Mode == PairMode::kOwned)  // a select, not a branch
-        jt = jo - lo_off < span ? jo : idle_off + 32 * std::size_t(l);
-      double* fj = reinterpret_cast<double*>(frow + jt);
+        base = jo - lo_off < span ? frow : grow;
+      double* fj = reinterpret_cast<double*>(base + jo);
       _mm256_store_pd(fj, _mm256_sub_pd(_mm256_load_pd(fj), g[l]));
     }
   };
@@ -569,6 +576,18 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
   double* pos = aligned_rows(rows_, span + page / 2 + 4 * rows + page);
   pos += (page - (reinterpret_cast<std::uintptr_t>(pos) / sizeof(double)) % page) % page;
   double* frc = pos + span + page / 2;
+  // Ghost rows (several threads): allocated zeroed, and every pass leaves them zero.
+  double* ghosts = nullptr;
+  if (nt > 1) {
+    if (ghosts_.size() != std::size_t(nt) * 4 * rows + 8)
+      ghosts_.assign(std::size_t(nt) * 4 * rows + 8, 0.0);
+    ghosts = aligned_rows(ghosts_, std::size_t(nt) * 4 * rows);
+    if (done_.count < nt) {
+      done_.flags = std::make_unique<PassFlag[]>(nt);
+      done_.count = nt;
+    }
+  }
+  const std::uint64_t pass = ++passes_;
 
   const Eigen::Matrix3d h = state.box.h();
   const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
@@ -610,7 +629,7 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
     std::fill(frc + 4 * idle, frc + 4 * (idle + kSpareRows), 0.0);
     ContactScratch& cs = scratch_[tid];
     if (nthr > 1)
-      cs.import_pairs(list, lo, hi);
+      cs.ghost_lists(list, tid, nthr);
 #pragma omp barrier  // every row is written before any thread reads its neighbours
     bool go = true;
     if (drift) {
@@ -624,28 +643,40 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
         holds = go;  // every thread decides the same; if not, the caller renews the list
     }
     if (go) {
-      // With several threads a pair whose partner lies in a later range is evaluated twice: by
-      // the owner's thread (kOwned: the owner's force, energy, virial) and by the partner's
-      // (kImported: the partner's force). No thread writes another's rows, so there is no
-      // second barrier and no exchange of forces.
+      // With several threads, a pair whose partner lies in a later thread's range puts the
+      // partner's force in a ghost row of the owner's thread. Once that thread's pair loop is
+      // done (its flag), the partner's thread adds the ghost rows of its particles to their
+      // force rows, in thread order, and zeroes them. Only later threads wait for earlier
+      // ones, so there is no second barrier; the first thread waits for none.
       const std::uint32_t k0 = start[lo], k1 = start[hi];
       VectorSums lanes;
       if (nthr == 1) {
-        lanes = vector_pairs<PairMode::kAll>(pos, shift, frc, owner, entries, k0, k1, lo, hi, idle);
+        lanes = vector_pairs<PairMode::kAll>(pos, shift, frc, nullptr, owner, entries, k0, k1, lo,
+                                             hi, idle);
       } else {
-        lanes =
-            vector_pairs<PairMode::kOwned>(pos, shift, frc, owner, entries, k0, k1, lo, hi, idle);
-        vector_pairs<PairMode::kImported>(pos, shift, frc, cs.import_owner.data(),
-                                          cs.import_entries.data(), 0, cs.import_owner.size(), lo,
-                                          hi, idle);
+        double* mine = ghosts + std::size_t(tid) * 4 * rows;
+        lanes = vector_pairs<PairMode::kOwned>(pos, shift, frc, mine, owner, entries, k0, k1, lo,
+                                               hi, idle);
+        done_.flags[tid].pass.store(pass, std::memory_order_release);
+        for (int t = 0; t < tid; ++t) {
+          while (done_.flags[t].pass.load(std::memory_order_acquire) != pass)
+            _mm_pause();
+          double* theirs = ghosts + std::size_t(t) * 4 * rows;
+          for (std::uint32_t q = cs.ghost_start[t]; q < cs.ghost_start[t + 1]; ++q) {
+            const std::size_t j = 4 * std::size_t(cs.ghost_rows[q]);
+            _mm256_store_pd(frc + j,
+                            _mm256_add_pd(_mm256_load_pd(frc + j), _mm256_load_pd(theirs + j)));
+            _mm256_store_pd(theirs + j, _mm256_setzero_pd());
+          }
+        }
       }
       energy[tid] = 0.5 * lane_sum(lanes.u);
       vir[tid] << lane_sum(lanes.wxx), lane_sum(lanes.wyy), lane_sum(lanes.wzz),
           lane_sum(lanes.wxy), lane_sum(lanes.wxz), lane_sum(lanes.wyz);
       contacts[tid] = lanes.contacts;
       {
-        // This range's forces are final (no thread writes another's rows): their squared sum,
-        // and the copy to the result or the drift.
+        // This range's forces are final: their squared sum, and the copy to the result or the
+        // drift.
         double f2 = 0.0;
         if (drift) {
           double* x = moved;

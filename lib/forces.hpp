@@ -3,6 +3,7 @@
 // force on i from j. Then Pi = W / V, P_hat = tr(Pi) / 3, sigma_xy = -Pi_xy.
 #pragma once
 #include <Eigen/Dense>
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -120,12 +121,13 @@ class ForceField {
       }
       deferred = 0;
     }
-    // The vector kernel's imported pairs for the range [lo, hi): inner-list pairs whose owner is
-    // outside the range and whose partner is inside, kept until the list or the range changes.
-    std::vector<std::uint32_t> import_owner, import_entries;
-    std::uint64_t import_generation = 0;
-    std::size_t import_lo = 0, import_hi = 0;
-    void import_pairs(const NeighbourList& list, std::size_t lo, std::size_t hi);
+    // The vector kernel's ghost rows for this thread's range: for each earlier thread t, the
+    // particles of the range that are partners of t's pairs, in increasing order, at
+    // [ghost_start[t], ghost_start[t + 1]); kept until the list or the thread count changes.
+    std::vector<std::uint32_t> ghost_rows, ghost_start;
+    std::uint64_t ghost_generation = 0;
+    int ghost_threads = 0;
+    void ghost_lists(const NeighbourList& list, int tid, int nthr);
     void resize(std::size_t m) {
       if (i.size() >= m)
         return;
@@ -145,6 +147,22 @@ class ForceField {
   // rows of each thread; position and force rows share this buffer (see
   // compute_harmonic_vector).
   mutable std::vector<double> rows_;
+  // Vector kernel on several threads: per thread, force rows for the partners of its pairs that
+  // other threads own (its ghosts; all zero between passes), and a flag per thread, set to the
+  // pass number once its pair loop is done, after which later threads add its ghosts to theirs.
+  mutable std::vector<double> ghosts_;
+  struct alignas(64) PassFlag {
+    std::atomic<std::uint64_t> pass{0};
+  };
+  struct PassFlags {  // a copied ForceField gets flags of its own
+    std::unique_ptr<PassFlag[]> flags;
+    int count = 0;
+    PassFlags() = default;
+    PassFlags(const PassFlags&) {}
+    PassFlags& operator=(const PassFlags&) { return *this; }
+  };
+  mutable PassFlags done_;
+  mutable std::uint64_t passes_ = 0;
 };
 
 }  // namespace jamflow
