@@ -492,17 +492,15 @@ VectorSums vector_pairs(const double* pos, const double* shift, double* frc, dou
     const __m256d delta =
         _mm256_maskz_mov_pd(touch, _mm256_fnmadd_pd(_mm256_mul_pd(r2, s), inv_a, one));
     const __m256d f_over_r = _mm256_maskz_mul_pd(touch, _mm256_mul_pd(delta, inv_a), s);
-    {
-      const __m256d gx = _mm256_mul_pd(f_over_r, rx), gy = _mm256_mul_pd(f_over_r, ry),
-                    gz = _mm256_mul_pd(f_over_r, rz);
-      u = _mm256_fmadd_pd(delta, delta, u);
-      wxx = _mm256_fmadd_pd(rx, gx, wxx);
-      wyy = _mm256_fmadd_pd(ry, gy, wyy);
-      wzz = _mm256_fmadd_pd(rz, gz, wzz);
-      wxy = _mm256_fmadd_pd(rx, gy, wxy);
-      wxz = _mm256_fmadd_pd(rx, gz, wxz);
-      wyz = _mm256_fmadd_pd(ry, gz, wyz);
-    }
+    const __m256d gx = _mm256_mul_pd(f_over_r, rx), gy = _mm256_mul_pd(f_over_r, ry),
+                  gz = _mm256_mul_pd(f_over_r, rz);
+    u = _mm256_fmadd_pd(delta, delta, u);
+    wxx = _mm256_fmadd_pd(rx, gx, wxx);
+    wyy = _mm256_fmadd_pd(ry, gy, wyy);
+    wzz = _mm256_fmadd_pd(rz, gz, wzz);
+    wxy = _mm256_fmadd_pd(rx, gy, wxy);
+    wxz = _mm256_fmadd_pd(rx, gz, wxz);
+    wyz = _mm256_fmadd_pd(ry, gz, wyz);
     // Pair forces as rows: f/r times the pair's row, its fourth entry masked to 0.
     const __m256d g[4] = {_mm256_maskz_mul_pd(0x7, _mm256_permute4x64_pd(f_over_r, 0x00), d[0]),
                           _mm256_maskz_mul_pd(0x7, _mm256_permute4x64_pd(f_over_r, 0x55), d[1]),

@@ -177,9 +177,16 @@ void NeighbourList::build(const State& state, int threads) {
     const std::uint32_t* cell_index = cell_of.data();
     const int nbx = nb[0], nby = nb[1], nbz = nb[2];
     const double skin = skin_;
-    // Scaled coordinates are periodic in the unit cube whatever the tilt (the Lees–Edwards
-    // offset lives in h), so the 27 surrounding bins hold every partner within reach.
-    const auto neighbours = [=](std::size_t i, std::uint32_t* cells) {
+    // A row holds at most every member of 27 bins: one bound for all rows, so that the bins
+    // around a particle are found once.
+    std::uint32_t fullest = 0;
+    for (std::size_t c = 0; c < ncell; ++c)
+      fullest = std::max(fullest, cell_start[c + 1] - cell_start[c]);
+    const auto bound = [=](std::size_t) { return 27 * std::size_t(fullest); };
+    const auto row = [=](std::size_t i, std::uint32_t* dst) {
+      // Scaled coordinates are periodic in the unit cube whatever the tilt (the Lees–Edwards
+      // offset lives in h), so the 27 surrounding bins hold every partner within reach.
+      std::uint32_t cells[27];
       const int c = int(cell_index[i]);
       const int cz = c % nbz, cy = (c / nbz) % nby, cx = c / (nbz * nby);
       int nc = 0;
@@ -193,18 +200,6 @@ void NeighbourList::build(const State& state, int threads) {
           }
         }
       }
-    };
-    const auto bound = [=](std::size_t i) {
-      std::uint32_t cells[27];
-      neighbours(i, cells);
-      std::size_t b = 0;
-      for (std::uint32_t cell : cells)
-        b += cs[cell + 1] - cs[cell];
-      return b;
-    };
-    const auto row = [=](std::size_t i, std::uint32_t* dst) {
-      std::uint32_t cells[27];
-      neighbours(i, cells);
       const double xi = sx[i], yi = sy[i], zi = sz[i], di = d[i];
       std::size_t m = 0;
       for (std::uint32_t cell : cells) {
