@@ -22,10 +22,11 @@ void Euler::advance(Model& model, const Ensemble& ensemble, double t_end) {
     if (!ensemble.has_piston()) {
       // The new cell does not depend on this step's forces, so the drift is fused into the
       // force pass (the same bits as the three steps below).
+      // The model moves the cell to `next` itself (the same bits as move_cell) and needs no
+      // touch(): it lays out the next pass's rows ahead.
       Box next = s.box;
       next.strain += ensemble.shear_rate() * h;
-      model.evaluate_and_drift(Drift::of(next.h_inv(), h / kXiS));
-      move_cell(s, ensemble.shear_rate() * h, s.box.volume());
+      model.evaluate_and_drift(Drift::of(next.h_inv(), h / kXiS), next);
     } else {
       const Evaluation& ev = model.evaluate();
       const double v_new = s.box.volume() + h * ensemble.volume_rate(ev.pressure);
@@ -33,9 +34,9 @@ void Euler::advance(Model& model, const Ensemble& ensemble, double t_end) {
       // Forces of the old configuration, displacement mapped with the new cell: r advances by
       // exactly dt F / xi_s on top of the affine flow.
       drift_particles(s, ev.forces.force, h, model.force_field().threads());
+      model.touch();
     }
     s.time = (h == dt_) ? s.time + h : t_end;
-    model.touch();
     ++steps_;
   }
 }

@@ -4,6 +4,7 @@
 #pragma once
 #include <Eigen/Dense>
 #include <atomic>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -42,10 +43,12 @@ struct Drift {
     return {h_inv(0, 0) * dt_over_xi, h_inv(0, 1) * dt_over_xi, h_inv(1, 1) * dt_over_xi,
             h_inv(2, 2) * dt_over_xi};
   }
+  // The products are fused explicitly, so that a vector loop can give the same bits whatever the
+  // compiler contracts (these are the bits GCC gave the plain expressions).
   void apply(double& x, double& y, double& z, double fx, double fy, double fz) const {
-    x += xx * fx + xy * fy;
-    y += yy * fy;
-    z += zz * fz;
+    x += std::fma(xx, fx, xy * fy);
+    y = std::fma(yy, fy, y);
+    z = std::fma(zz, fz, z);
   }
 };
 
@@ -66,8 +69,18 @@ class ForceField {
   // (explicit Euler), provided the inner list holds for the state; the forces themselves are
   // not kept (out.force is left empty). Returns false, with the state untouched and
   // out.max_drift2 set, when the list no longer holds: renew it and call again.
+  //
+  // `next` is the cell the caller gives the state right after the pass (the one the drift is
+  // mapped with). The vector kernel then also lays out, in the same loop, the rows of the
+  // drifted particles in that cell and measures their displacement, which is what the next pass
+  // would start with. The next pass skips that work if the caller passes `untouched`: nothing
+  // but this call and that cell change has altered the state since. The rows are also checked
+  // against the list generation, the cell and the thread count, and any other pass drops them.
   bool compute_and_drift(State& state, const NeighbourList& list, ForceResult& out,
-                         const Drift& drift) const;
+                         const Drift& drift, const Eigen::Matrix3d& next,
+                         bool untouched = false) const;
+  // Passes that reused the rows laid out by the previous one (see compute_and_drift).
+  std::size_t reused_layouts() const { return reused_; }
   // True when compute() takes the vector kernel for a system of n particles.
   bool vector_kernel(std::size_t n) const;
   void use_portable_kernel(bool portable) { portable_ = portable; }
@@ -83,10 +96,16 @@ class ForceField {
   template <class Pair>
   void compute_impl(const Pair& pair, const State& state, const NeighbourList& list,
                     ForceResult& out) const;
-  // With `drift` (and `moved`, the state's own positions), only if the inner list holds for
-  // the state: then drifts the particles and returns true; see compute_and_drift.
+  // With `drift` (and `moved`, the state's own positions, and `next`), only if the inner list
+  // holds for the state: then drifts the particles, lays out their rows ahead and returns
+  // true; see compute_and_drift.
   bool compute_harmonic_vector(const State& state, const NeighbourList& list, ForceResult& out,
-                               const Drift* drift = nullptr, double* moved = nullptr) const;
+                               const Drift* drift = nullptr, double* moved = nullptr,
+                               const Eigen::Matrix3d* next = nullptr, bool untouched = false) const;
+#if defined(__AVX512F__) && defined(__AVX512VL__)
+  void add_ghost_rows(int tid, std::uint64_t pass, std::size_t rows, double* ghosts,
+                      double* frc) const;
+#endif
   // After the barrier: adds every thread's deferred forces on particles in [lo, hi), in thread
   // order, through add(j, fx, fy, fz).
   template <class Add>
@@ -125,6 +144,8 @@ class ForceField {
     // particles of the range that are partners of t's pairs, in increasing order, at
     // [ghost_start[t], ghost_start[t + 1]); kept until the list or the thread count changes.
     std::vector<std::uint32_t> ghost_rows, ghost_start;
+    // The same particles as bits, four per byte from the start of the range.
+    std::vector<std::uint8_t> ghost_bits;
     std::uint64_t ghost_generation = 0;
     int ghost_threads = 0;
     void ghost_lists(const NeighbourList& list, int tid, int nthr);
@@ -148,8 +169,9 @@ class ForceField {
   // compute_harmonic_vector).
   mutable std::vector<double> rows_;
   // Vector kernel on several threads: per thread, force rows for the partners of its pairs that
-  // other threads own (its ghosts; all zero between passes), and a flag per thread, set to the
-  // pass number once its pair loop is done, after which later threads add its ghosts to theirs.
+  // other threads own (its ghosts, zeroed by it before its pair loop), and a flag per thread, set
+  // to the pass number once its pair loop is done, after which later threads add its ghosts to
+  // theirs.
   mutable std::vector<double> ghosts_;
   struct alignas(64) PassFlag {
     std::atomic<std::uint64_t> pass{0};
@@ -163,6 +185,19 @@ class ForceField {
   };
   mutable PassFlags done_;
   mutable std::uint64_t passes_ = 0;
+  // Rows laid out ahead by a drifting pass, for the state it left in the cell `h` (xx, xy, yy,
+  // zz), with the force rows zeroed and each thread's displacement measured (see
+  // compute_and_drift).
+  struct RowsAhead {
+    bool valid = false;
+    std::uint64_t generation = 0;  // of the inner list
+    std::size_t n = 0;
+    int threads = 0;
+    double h[4] = {0.0, 0.0, 0.0, 0.0};
+    std::vector<double> drift2;
+  };
+  mutable RowsAhead ahead_;
+  mutable std::size_t reused_ = 0;
 };
 
 }  // namespace jamflow

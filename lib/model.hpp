@@ -48,14 +48,19 @@ class Model {
   // Forces and observables of the current configuration (computed once, then cached).
   const Evaluation& evaluate();
   // The particle drift of an explicit Euler step fused into the force pass: the observables of
-  // the current configuration are evaluated and every particle then moves by s += D F (the
-  // cell is not touched). Gives the same state, bit for bit, as evaluate() followed by the
-  // drift with the evaluation's forces, but the returned evaluation holds no forces.
-  const Evaluation& evaluate_and_drift(const Drift& drift);
+  // the current configuration are evaluated, every particle then moves by s += D F, and the
+  // cell becomes `next` (D is mapped with it). Gives the same state, bit for bit, as evaluate()
+  // followed by the cell change and the drift with the evaluation's forces, but the returned
+  // evaluation holds no forces. Needs no touch(); the pass prepares the next one's rows, which
+  // that pass uses if nothing else changes the state in between.
+  const Evaluation& evaluate_and_drift(const Drift& drift, const Box& next);
 
   // Mutable access to the state. Call touch() after changing positions or the cell.
   State& mutable_state() { return state_; }
-  void touch() { fresh_ = false; }
+  void touch() {
+    fresh_ = false;
+    rows_ahead_ = false;
+  }
 
   // Between steps: applies a due Lees–Edwards remap (returns true if one happened, so that
   // integrators drop their history) and may reorder particles in memory (returns true too).
@@ -80,6 +85,8 @@ class Model {
   NeighbourList list_;
   Evaluation eval_;
   bool fresh_ = false;
+  // Nothing has changed the state since evaluate_and_drift() (see ForceField::compute_and_drift).
+  bool rows_ahead_ = false;
   std::size_t evaluations_ = 0;
   std::size_t builds_at_last_sort_ = 0;
   bool sorted_once_ = false;
