@@ -146,6 +146,8 @@ class ForceField {
     std::vector<std::uint32_t> ghost_rows, ghost_start;
     // The same particles as bits, four per byte from the start of the range.
     std::vector<std::uint8_t> ghost_bits;
+    // The partners of this thread's pairs that later threads own: its ghost rows, sorted.
+    std::vector<std::uint32_t> written;
     std::uint64_t ghost_generation = 0;
     int ghost_threads = 0;
     void ghost_lists(const NeighbourList& list, int tid, int nthr);

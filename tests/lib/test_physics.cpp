@@ -256,7 +256,7 @@ TEST(Forces, VectorKernelMatchesPortableKernel) {
       ForceResult a, b, again;
       fast.compute(s, list, a);
       plain.compute(s, list, b);
-      // A pass leaves its ghost rows zero: the next one gives the same bits.
+      // A pass starts its ghost rows from zero: the next one gives the same bits.
       fast.compute(s, list, again);
       ASSERT_EQ(a.force, again.force) << "n " << n << " threads " << threads;
       ASSERT_GT(b.contacts, s.size());
