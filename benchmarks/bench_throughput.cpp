@@ -1,12 +1,17 @@
 // Throughput benchmark (issue: core engine): ns per particle-step and particle-steps/s of
 // steady shear with explicit Euler, N = 1000 and 10000, phi = 0.64, gdot = 1e-4, dt = 0.1,
 // on 1 thread and on all cores. Start-up is excluded: each case first relaxes and shears the
-// random initial state, then times a steady-shear window (list rebuilds and remap checks
+// random initial state, then times steady-shear windows (list rebuilds and remap checks
 // included, as in a production run).
 //
-// usage: bench_throughput [--quick] [--steps S] [--sizes 1000,10000]
+// A shared machine's speed drifts over seconds, so the thread counts take turns: R rounds, each
+// timing one window per thread count, and the figures are the median window (the fastest in
+// brackets). The speed-up is the ratio of the medians.
+//
+// usage: bench_throughput [--quick] [--steps S] [--rounds R] [--sizes 1000,10000]
 #include <omp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -57,6 +62,7 @@ Result time_window(Model& m, const ConstantVolume& ens, Euler& euler, long steps
 int main(int argc, char** argv) {
   std::vector<std::size_t> sizes = {1000, 10000};
   long steps_override = 0;
+  int rounds = 5;
   bool quick = false;
   for (int k = 1; k < argc; ++k) {
     const std::string a = argv[k];
@@ -64,6 +70,8 @@ int main(int argc, char** argv) {
       quick = true;
     } else if (a == "--steps" && k + 1 < argc) {
       steps_override = std::atol(argv[++k]);
+    } else if (a == "--rounds" && k + 1 < argc) {
+      rounds = std::max(1, std::atoi(argv[++k]));
     } else if (a == "--sizes" && k + 1 < argc) {
       sizes.clear();
       std::stringstream ss(argv[++k]);
@@ -71,7 +79,8 @@ int main(int argc, char** argv) {
       while (std::getline(ss, item, ','))
         sizes.push_back(std::stoul(item));
     } else {
-      std::fprintf(stderr, "usage: bench_throughput [--quick] [--steps S] [--sizes N1,N2]\n");
+      std::fprintf(stderr,
+                   "usage: bench_throughput [--quick] [--steps S] [--rounds R] [--sizes N1,N2]\n");
       return 2;
     }
   }
@@ -79,7 +88,8 @@ int main(int argc, char** argv) {
   const int all = omp_get_max_threads();
   std::printf("jamflow throughput: Euler, phi = %.2f, gdot = %g, dt = %g, %d cores available\n",
               phi, gdot, dt, all);
-  std::printf("%8s %8s %14s %14s %16s %10s %8s %8s %s\n", "N", "threads", "ns/part-step",
+  std::printf("median of %d interleaved windows per thread count (fastest in brackets)\n", rounds);
+  std::printf("%8s %8s %22s %14s %16s %10s %8s %8s %s\n", "N", "threads", "ns/part-step",
               "cpu-ns/p-step", "part-steps/s", "speed-up", "rebuilds", "refresh", "kernel");
   for (std::size_t n : sizes) {
     // Pre-shear once: relax the random overlaps and reach steady flow (strain 0.3).
@@ -95,22 +105,42 @@ int main(int argc, char** argv) {
     const long steps = steps_override > 0
                            ? steps_override
                            : (quick ? 200 : long(std::max<std::size_t>(2000, 2e8 / n)));
-    double base = 0.0;
     std::vector<int> counts = {1};
     if (all > 1)
       counts.push_back(all);
-    for (int threads : counts) {
-      Model run(steady, ModelOptions{2.0, 0.3, threads, 20});
-      Euler euler(dt);
-      time_window(run, ens, euler, steps / 10, dt);  // warm caches and buffers
-      const Result r = time_window(run, ens, euler, steps, dt);
-      if (threads == 1)
-        base = r.ns_per_particle_step;
-      std::printf("%8zu %8d %14.2f %14.2f %16.3e %10.2f %8zu %8zu %s\n", n, threads,
-                  r.ns_per_particle_step, r.cpu_ns_per_particle_step, r.particle_steps_per_s,
-                  base / r.ns_per_particle_step, r.builds, r.refreshes, r.kernel);
-      std::fflush(stdout);
+    // Every thread count runs the same stretch of the same trajectory in every round: each
+    // round starts from the steady state again.
+    std::vector<std::vector<Result>> results(counts.size());
+    for (int r = 0; r < rounds; ++r) {
+      for (std::size_t c = 0; c < counts.size(); ++c) {
+        Model run(steady, ModelOptions{2.0, 0.3, counts[c], 20});
+        Euler euler(dt);
+        time_window(run, ens, euler, steps / 10, dt);  // warm caches and buffers
+        results[c].push_back(time_window(run, ens, euler, steps, dt));
+      }
     }
+    const auto median = [](std::vector<double> v) {
+      std::sort(v.begin(), v.end());
+      const std::size_t k = v.size() / 2;
+      return v.size() % 2 ? v[k] : 0.5 * (v[k - 1] + v[k]);
+    };
+    double base = 0.0;
+    for (std::size_t c = 0; c < counts.size(); ++c) {
+      std::vector<double> wall, cpu;
+      for (const Result& x : results[c]) {
+        wall.push_back(x.ns_per_particle_step);
+        cpu.push_back(x.cpu_ns_per_particle_step);
+      }
+      const double med = median(wall), best = *std::min_element(wall.begin(), wall.end());
+      if (c == 0)
+        base = med;
+      const Result& x = results[c].back();
+      char figure[64];
+      std::snprintf(figure, sizeof figure, "%.2f (%.2f)", med, best);
+      std::printf("%8zu %8d %22s %14.2f %16.3e %10.2f %8zu %8zu %s\n", n, counts[c], figure,
+                  median(cpu), 1e9 / med, base / med, x.builds, x.refreshes, x.kernel);
+    }
+    std::fflush(stdout);
   }
   return 0;
 }
