@@ -385,6 +385,52 @@ struct VectorSums {
   std::size_t contacts;
 };
 
+// A particle's row (h s, a) and its squared real-space displacement |h (s - ref)|^2 in a cell
+// h, four particles at a time (rows transposed) or one. Every loop that writes rows or measures
+// displacements goes through these, so a row has the same bits whichever loop made it.
+struct CellMap {
+  double xx, xy, yy, zz;
+  __m256d vxx, vxy, vyy, vzz;
+  explicit CellMap(const Eigen::Matrix3d& h)
+      : xx(h(0, 0)),
+        xy(h(0, 1)),
+        yy(h(1, 1)),
+        zz(h(2, 2)),
+        vxx(_mm256_set1_pd(xx)),
+        vxy(_mm256_set1_pd(xy)),
+        vyy(_mm256_set1_pd(yy)),
+        vzz(_mm256_set1_pd(zz)) {}
+  // The rows of particles i..i+3 at (x, y, z), r[k] for particle i + k.
+  void rows4(__m256d x, __m256d y, __m256d z, const double* diameter, std::size_t i,
+             __m256d* r) const {
+    const __m256d q[4] = {_mm256_fmadd_pd(vxy, y, _mm256_mul_pd(vxx, x)), _mm256_mul_pd(vyy, y),
+                          _mm256_mul_pd(vzz, z),
+                          _mm256_mul_pd(_mm256_set1_pd(0.5), _mm256_loadu_pd(diameter + i))};
+    transpose4(q, r[0], r[1], r[2], r[3]);
+  }
+  __m256d displacement4(__m256d x, __m256d y, __m256d z, const double* ref, std::size_t n,
+                        std::size_t i) const {
+    const __m256d ux = _mm256_sub_pd(x, _mm256_loadu_pd(ref + i)),
+                  uy = _mm256_sub_pd(y, _mm256_loadu_pd(ref + n + i)),
+                  uz = _mm256_sub_pd(z, _mm256_loadu_pd(ref + 2 * n + i));
+    const __m256d rx = _mm256_fmadd_pd(vxy, uy, _mm256_mul_pd(vxx, ux)),
+                  ry = _mm256_mul_pd(vyy, uy), rz = _mm256_mul_pd(vzz, uz);
+    return _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
+  }
+  void row1(double x, double y, double z, double diameter, double* row) const {
+    row[0] = std::fma(xy, y, xx * x);
+    row[1] = yy * y;
+    row[2] = zz * z;
+    row[3] = 0.5 * diameter;
+  }
+  double displacement1(double x, double y, double z, const double* ref, std::size_t n,
+                       std::size_t i) const {
+    const double ux = x - ref[i], uy = y - ref[n + i], uz = z - ref[2 * n + i];
+    const double rx = std::fma(xy, uy, xx * ux), ry = yy * uy, rz = zz * uz;
+    return std::fma(rz, rz, std::fma(ry, ry, rx * rx));
+  }
+};
+
 // The rows of particles [lo, hi): (h s, a) from the scaled SoA positions s, four particles per
 // transpose, with their force rows zeroed; in the same pass, the largest squared real-space
 // displacement since `ref` (SoA scaled), NaN if a position is not finite (as
@@ -392,31 +438,20 @@ struct VectorSums {
 double lay_out_rows(const double* s, const double* ref, const double* diameter, std::size_t n,
                     const Eigen::Matrix3d& h, std::size_t lo, std::size_t hi, double* pos,
                     double* frc) {
-  const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
-  const __m256d vxx = _mm256_set1_pd(hxx), vxy = _mm256_set1_pd(hxy), vyy = _mm256_set1_pd(hyy),
-                vzz = _mm256_set1_pd(hzz), half = _mm256_set1_pd(0.5), zero = _mm256_setzero_pd();
+  const CellMap cell(h);
+  const __m256d zero = _mm256_setzero_pd();
   __m256d m = zero, sum = zero;
   std::size_t i = lo;
   for (; i + 4 <= hi; i += 4) {
     const __m256d x = _mm256_loadu_pd(s + i), y = _mm256_loadu_pd(s + n + i),
                   z = _mm256_loadu_pd(s + 2 * n + i);
-    const __m256d q[4] = {_mm256_fmadd_pd(vxy, y, _mm256_mul_pd(vxx, x)), _mm256_mul_pd(vyy, y),
-                          _mm256_mul_pd(vzz, z),
-                          _mm256_mul_pd(half, _mm256_loadu_pd(diameter + i))};
-    __m256d r0, r1, r2, r3;
-    transpose4(q, r0, r1, r2, r3);
-    _mm256_store_pd(pos + 4 * i, r0);
-    _mm256_store_pd(pos + 4 * i + 4, r1);
-    _mm256_store_pd(pos + 4 * i + 8, r2);
-    _mm256_store_pd(pos + 4 * i + 12, r3);
-    for (int k = 0; k < 4; ++k)
+    __m256d r[4];
+    cell.rows4(x, y, z, diameter, i, r);
+    for (int k = 0; k < 4; ++k) {
+      _mm256_store_pd(pos + 4 * i + 4 * k, r[k]);
       _mm256_store_pd(frc + 4 * i + 4 * k, zero);
-    const __m256d ux = _mm256_sub_pd(x, _mm256_loadu_pd(ref + i)),
-                  uy = _mm256_sub_pd(y, _mm256_loadu_pd(ref + n + i)),
-                  uz = _mm256_sub_pd(z, _mm256_loadu_pd(ref + 2 * n + i));
-    const __m256d rx = _mm256_fmadd_pd(vxy, uy, _mm256_mul_pd(vxx, ux)),
-                  ry = _mm256_mul_pd(vyy, uy), rz = _mm256_mul_pd(vzz, uz);
-    const __m256d d2 = _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
+    }
+    const __m256d d2 = cell.displacement4(x, y, z, ref, n, i);
     m = _mm256_max_pd(d2, m);  // a NaN never wins the max, but it poisons the sum
     sum = _mm256_add_pd(sum, d2);
   }
@@ -426,14 +461,9 @@ double lay_out_rows(const double* s, const double* ref, const double* diameter, 
   double total = lane_sum(sum);
   for (; i < hi; ++i) {
     const double x = s[i], y = s[n + i], z = s[2 * n + i];
-    pos[4 * i] = std::fma(hxy, y, hxx * x);
-    pos[4 * i + 1] = hyy * y;
-    pos[4 * i + 2] = hzz * z;
-    pos[4 * i + 3] = 0.5 * diameter[i];
+    cell.row1(x, y, z, diameter[i], pos + 4 * i);
     std::fill(frc + 4 * i, frc + 4 * i + 4, 0.0);
-    const double ux = x - ref[i], uy = y - ref[n + i], uz = z - ref[2 * n + i];
-    const double rx = std::fma(hxy, uy, hxx * ux), ry = hyy * uy, rz = hzz * uz;
-    const double d2 = std::fma(rz, rz, std::fma(ry, ry, rx * rx));
+    const double d2 = cell.displacement1(x, y, z, ref, n, i);
     mx = d2 > mx ? d2 : mx;
     total += d2;
   }
@@ -499,9 +529,8 @@ double drift_and_lay_out(const Drift& d, double* s, const double* ref, const dou
     else
       return ghost[(i - lo) / 4];
   };
-  const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
-  const __m256d vxx = _mm256_set1_pd(hxx), vxy = _mm256_set1_pd(hxy), vyy = _mm256_set1_pd(hyy),
-                vzz = _mm256_set1_pd(hzz), half = _mm256_set1_pd(0.5), zero = _mm256_setzero_pd();
+  const CellMap cell(h);
+  const __m256d zero = _mm256_setzero_pd();
   const __m256d dxx = _mm256_set1_pd(d.xx), dxy = _mm256_set1_pd(d.xy), dyy = _mm256_set1_pd(d.yy),
                 dzz = _mm256_set1_pd(d.zz);
   __m256d m = zero, sum = zero, acc = zero;
@@ -522,17 +551,9 @@ double drift_and_lay_out(const Drift& d, double* s, const double* ref, const dou
         _mm256_add_pd(_mm256_loadu_pd(s + i), _mm256_fmadd_pd(dxx, fx, _mm256_mul_pd(dxy, fy)));
     const __m256d y = _mm256_fmadd_pd(dyy, fy, _mm256_loadu_pd(s + n + i));
     const __m256d z = _mm256_fmadd_pd(dzz, fz, _mm256_loadu_pd(s + 2 * n + i));
-    const __m256d q[4] = {_mm256_fmadd_pd(vxy, y, _mm256_mul_pd(vxx, x)), _mm256_mul_pd(vyy, y),
-                          _mm256_mul_pd(vzz, z),
-                          _mm256_mul_pd(half, _mm256_loadu_pd(diameter + i))};
     __m256d r[4];
-    transpose4(q, r[0], r[1], r[2], r[3]);
-    const __m256d ux = _mm256_sub_pd(x, _mm256_loadu_pd(ref + i)),
-                  uy = _mm256_sub_pd(y, _mm256_loadu_pd(ref + n + i)),
-                  uz = _mm256_sub_pd(z, _mm256_loadu_pd(ref + 2 * n + i));
-    const __m256d rx = _mm256_fmadd_pd(vxy, uy, _mm256_mul_pd(vxx, ux)),
-                  ry = _mm256_mul_pd(vyy, uy), rz = _mm256_mul_pd(vzz, uz);
-    const __m256d d2 = _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
+    cell.rows4(x, y, z, diameter, i, r);
+    const __m256d d2 = cell.displacement4(x, y, z, ref, n, i);
     if (all) {
       acc = _mm256_add_pd(acc, squared4(fx, fy, fz));
       for (int k = 0; k < 4; ++k)
@@ -575,13 +596,8 @@ double drift_and_lay_out(const Drift& d, double* s, const double* ref, const dou
     s[i] = x;
     s[n + i] = y;
     s[2 * n + i] = z;
-    pos[4 * i] = std::fma(hxy, y, hxx * x);
-    pos[4 * i + 1] = hyy * y;
-    pos[4 * i + 2] = hzz * z;
-    pos[4 * i + 3] = 0.5 * diameter[i];
-    const double ux = x - ref[i], uy = y - ref[n + i], uz = z - ref[2 * n + i];
-    const double rx = std::fma(hxy, uy, hxx * ux), ry = hyy * uy, rz = hzz * uz;
-    const double d2 = std::fma(rz, rz, std::fma(ry, ry, rx * rx));
+    cell.row1(x, y, z, diameter[i], pos + 4 * i);
+    const double d2 = cell.displacement1(x, y, z, ref, n, i);
     mx = d2 > mx ? d2 : mx;
     total += d2;
   }
