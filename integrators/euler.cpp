@@ -21,9 +21,8 @@ void Euler::advance(Model& model, const Ensemble& ensemble, double t_end) {
       h = t_end - s.time;
     if (!ensemble.has_piston()) {
       // The new cell does not depend on this step's forces, so the drift is fused into the
-      // force pass (the same bits as the three steps below).
-      // The model moves the cell to `next` itself (the same bits as move_cell) and needs no
-      // touch(): it lays out the next pass's rows ahead.
+      // force pass (the same bits as the three steps below). The model moves the cell to `next`
+      // itself and needs no touch(): the pass has laid out the next one's rows ahead.
       Box next = s.box;
       next.strain += ensemble.shear_rate() * h;
       model.evaluate_and_drift(Drift::of(next.h_inv(), h / kXiS), next);

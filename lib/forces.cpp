@@ -109,6 +109,14 @@ std::size_t first_block(const std::uint32_t* start, std::size_t n, std::size_t b
   return lo_b;
 }
 
+// The particles [lo, hi) of thread t of nthr, for the list rows `start` of n particles.
+std::pair<std::size_t, std::size_t> thread_range(const std::uint32_t* start, std::size_t n, int t,
+                                                 int nthr) {
+  const std::size_t nblocks = (n + kBlock - 1) / kBlock;
+  return {std::min(n, first_block(start, n, nblocks, t, nthr) * kBlock),
+          std::min(n, first_block(start, n, nblocks, t + 1, nthr) * kBlock)};
+}
+
 // Per-thread partial sums of a force pass, reduced in thread order so that one thread count
 // is deterministic.
 struct ThreadSums {
@@ -157,11 +165,8 @@ void ForceField::ContactScratch::ghost_lists(const NeighbourList& list, int tid,
     return;
   const std::uint32_t* start = list.inner_start().data();
   const std::uint32_t* entries = list.inner_entries().data();
-  const std::size_t n = list.inner_start().size() - 1, blocks = (n + kBlock - 1) / kBlock;
-  const auto range = [&](int t) {
-    return std::pair{std::min(n, first_block(start, n, blocks, t, nthr) * kBlock),
-                     std::min(n, first_block(start, n, blocks, t + 1, nthr) * kBlock)};
-  };
+  const std::size_t n = list.inner_start().size() - 1;
+  const auto range = [&](int t) { return thread_range(start, n, t, nthr); };
   const auto [lo, hi] = range(tid);
   // The half list keeps each pair at its lower index, so a partner never lies in an earlier
   // range: the ghosts of thread t belong to later threads only. Checked, as a force written to a
@@ -225,7 +230,6 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
   double* fx = out.force.data();
   double* fy = fx + n;
   double* fz = fy + n;
-  const std::size_t blocks = (n + kBlock - 1) / kBlock;
 
 #pragma omp parallel num_threads(nt)
   {
@@ -236,9 +240,7 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
     // thread's range (pairs across a range boundary, a thin layer of the cell order) to a
     // list that the owner adds after the barrier, in thread order: no races, no full-size
     // per-thread buffers, and a fixed summation order for a given thread count.
-    const std::size_t b0 = first_block(start, n, blocks, tid, nthr);
-    const std::size_t b1 = first_block(start, n, blocks, tid + 1, nthr);
-    const std::size_t lo = std::min(n, b0 * kBlock), hi = std::min(n, b1 * kBlock);
+    const auto [lo, hi] = thread_range(start, n, tid, nthr);
     if (have_ref)
       drift2[tid] = NeighbourList::max_displacement2(state, ref, lo, hi);
     std::fill(fx + lo, fx + hi, 0.0);
@@ -258,8 +260,8 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
     double* ca = cs.a.data();
     double u = 0.0, wxx = 0.0, wyy = 0.0, wzz = 0.0, wxy = 0.0, wxz = 0.0, wyz = 0.0;
     std::size_t nc = 0;
-    for (std::size_t b = b0; b < b1; ++b) {
-      const std::size_t i0 = b * kBlock, i1 = std::min(n, i0 + kBlock);
+    for (std::size_t i0 = lo; i0 < hi; i0 += kBlock) {  // lo is a multiple of kBlock
+      const std::size_t i1 = std::min(hi, i0 + kBlock);
       // (1) Geometry and branch-free gathering of the contacts.
       std::size_t m = 0;
       for (std::size_t i = i0; i < i1; ++i) {
@@ -335,11 +337,18 @@ void ForceField::compute_impl(const Pair& pair, const State& state, const Neighb
     cs.deferred = nd;
     if (nthr > 1) {
 #pragma omp barrier
-      apply_deferred(nthr, lo, hi, [&](std::uint32_t j, double gx, double gy, double gz) {
-        fx[j] += gx;
-        fy[j] += gy;
-        fz[j] += gz;
-      });
+      // Every thread's forces on this range's particles, in thread order.
+      for (int u = 0; u < nthr; ++u) {
+        const ContactScratch& other = scratch_[u];
+        for (std::size_t q = 0; q < other.deferred; ++q) {
+          const Deferred& df = other.deferred_rows[q];
+          if (df.j >= lo && df.j < hi) {
+            fx[df.j] += df.fx;
+            fy[df.j] += df.fy;
+            fz[df.j] += df.fz;
+          }
+        }
+      }
     }
     // The forces of this range are final: their squared sum, here rather than in a second
     // parallel region.
@@ -798,7 +807,6 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
   const bool have_ref = list.inner_reference().size() == state.pos.size();
   const double* ref = list.inner_reference().data();
   double* fx = out.force.data();  // empty with a drift
-  const std::size_t blocks = (n + kBlock - 1) / kBlock;
   // With a drift, the pass goes on only if the list holds; every thread decides the same.
   const double allowed = drift ? list.inner_drift_allowed(state) : 0.0;
   bool holds = true;
@@ -810,15 +818,21 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
                      ahead_.threads == nt && ahead_.h[0] == hxx && ahead_.h[1] == hxy &&
                      ahead_.h[2] == hyy && ahead_.h[3] == hzz;
   ahead_.valid = false;
+  // Whether the list holds, from each thread's largest displacement (NaN: a position is not
+  // finite), as NeighbourList::inner_holds decides.
+  const auto list_holds = [&] {
+    double m = 0.0;
+    bool finite = true;
+    for (const double d2 : drift2) {
+      finite = finite && !std::isnan(d2);
+      m = std::max(m, d2);
+    }
+    return have_ref && finite && std::sqrt(m) <= allowed;
+  };
   if (reuse) {
     ++reused_;
     drift2 = ahead_.drift2;
-    double m = 0.0;
-    for (double d2 : drift2) {
-      holds = holds && !std::isnan(d2);
-      m = std::max(m, d2);
-    }
-    holds = holds && std::sqrt(m) <= allowed;  // as NeighbourList::inner_holds
+    holds = list_holds();
     if (!holds) {
       sums.finish(out, have_ref);
       return false;
@@ -831,9 +845,7 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
   {
     const int tid = omp_get_thread_num();
     const int nthr = omp_get_num_threads();
-    const std::size_t b0 = first_block(start, n, blocks, tid, nthr);
-    const std::size_t b1 = first_block(start, n, blocks, tid + 1, nthr);
-    const std::size_t lo = std::min(n, b0 * kBlock), hi = std::min(n, b1 * kBlock);
+    const auto [lo, hi] = thread_range(start, n, tid, nthr);
     const std::size_t idle = n + kSpareRows * std::size_t(tid);
     if (!reuse) {
       // Without a reference the displacement is not used (finish() reports it as infinite).
@@ -853,12 +865,7 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
     }
     bool go = true;
     if (drift && !reuse) {
-      double m = 0.0;
-      for (int t = 0; t < nthr; ++t)
-        m = std::max(m, drift2[t]);              // a NaN is not kept, and is caught below
-      go = have_ref && std::sqrt(m) <= allowed;  // as NeighbourList::inner_holds
-      for (int t = 0; t < nthr; ++t)
-        go = go && !std::isnan(drift2[t]);
+      go = list_holds();
       if (tid == 0)
         holds = go;  // every thread decides the same; if not, the caller renews the list
     }

@@ -106,19 +106,6 @@ class ForceField {
   void add_ghost_rows(int tid, std::uint64_t pass, std::size_t rows, double* ghosts,
                       double* frc) const;
 #endif
-  // After the barrier: adds every thread's deferred forces on particles in [lo, hi), in thread
-  // order, through add(j, fx, fy, fz).
-  template <class Add>
-  void apply_deferred(int nthr, std::size_t lo, std::size_t hi, const Add& add) const {
-    for (int t = 0; t < nthr; ++t) {
-      const ContactScratch& other = scratch_[t];
-      for (std::size_t q = 0; q < other.deferred; ++q) {
-        const Deferred& df = other.deferred_rows[q];
-        if (df.j >= lo && df.j < hi)  // the vector kernel's padding lanes belong to no range
-          add(df.j, df.fx, df.fy, df.fz);
-      }
-    }
-  }
   template <class Pair>
   void hessian_impl(const Pair& pair, const State& state, const NeighbourList& list,
                     const double* v, double* out) const;
