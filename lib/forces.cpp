@@ -195,9 +195,9 @@ void ForceField::ContactScratch::ghost_lists(const NeighbourList& list, int tid,
     ghost_rows.erase(std::unique(ghost_rows.begin() + first, ghost_rows.end()), ghost_rows.end());
     ghost_start.push_back(std::uint32_t(ghost_rows.size()));
   }
-  ghost_bits.assign((hi - lo + 3) / 4, 0);
+  ghost_blocks.assign((hi - lo + 3) / 4, 0);
   for (const std::uint32_t j : ghost_rows)
-    ghost_bits[(j - lo) / 4] |= std::uint8_t(1u << ((j - lo) % 4));
+    ghost_blocks[(j - lo) / 4] = 1;
   ghost_generation = list.inner_generation();
   ghost_threads = nthr;
 }
@@ -516,7 +516,7 @@ double copy_force_rows(const double* frc, double* f, std::size_t n, std::size_t 
 // Which particles of a range drift_and_lay_out moves.
 enum class DriftSet {
   kAll,
-  kOthers,  // those that are no earlier thread's ghosts: their forces are final first
+  kOthers,  // the blocks with no earlier thread's ghost: their forces are final first
   kGhosts,  // the rest, once the earlier threads' ghost rows have been added
 };
 
@@ -525,18 +525,23 @@ enum class DriftSet {
 // cell h they move to, their force rows zeroed, and their largest squared displacement since
 // `ref` in that cell (lay_out_rows's bits). Returns that displacement, NaN if a position is
 // not finite; f2 gets sum |F|^2 (with kAll, copy_force_rows's bits). kOthers and kGhosts take
-// the particles whose bit in `ghost` (four per byte from lo, a multiple of 4) is clear or set.
+// the blocks of four particles from lo whose flag in `ghost` is clear or set.
+//
+// kGhosts writes its rows with streaming stores. An earlier thread's pair loop reads them (they
+// are its partners' rows), so its core holds copies of their cache lines: an ordinary store
+// would wait for that core to give each line up, and the stores queued behind it would stall
+// the loop (this cost the later thread as much as its whole drift again). A streaming store
+// does not wait for the line; both threads' next reads fetch it from memory, prefetched at the
+// start of their pass (see compute_harmonic_vector).
 template <DriftSet Set>
 double drift_and_lay_out(const Drift& d, double* s, const double* ref, const double* diameter,
                          std::size_t n, const Eigen::Matrix3d& h, std::size_t lo, std::size_t hi,
                          double* pos, double* frc, double& f2, const std::uint8_t* ghost) {
-  const auto lanes_of = [&](std::size_t i) -> unsigned {
+  const auto takes = [&](std::size_t i) {
     if constexpr (Set == DriftSet::kAll)
-      return 0xF;
-    else if constexpr (Set == DriftSet::kOthers)
-      return ~unsigned(ghost[(i - lo) / 4]) & 0xF;
+      return true;
     else
-      return ghost[(i - lo) / 4];
+      return (ghost[(i - lo) / 4] != 0) == (Set == DriftSet::kGhosts);
   };
   const CellMap cell(h);
   const __m256d zero = _mm256_setzero_pd();
@@ -545,13 +550,8 @@ double drift_and_lay_out(const Drift& d, double* s, const double* ref, const dou
   __m256d m = zero, sum = zero, acc = zero;
   std::size_t i = lo;
   for (; i + 4 <= hi; i += 4) {
-    const unsigned take = lanes_of(i);
-    if (Set != DriftSet::kAll && take == 0)
+    if (!takes(i))
       continue;
-    // Every lane is computed; a partial group stores only its own lanes (the others' loads are
-    // of rows this thread owns, so no other thread writes them meanwhile).
-    const bool all = Set == DriftSet::kAll || take == 0xF;
-    const __mmask8 k8 = __mmask8(take);
     const __m256d g[4] = {_mm256_load_pd(frc + 4 * i), _mm256_load_pd(frc + 4 * i + 4),
                           _mm256_load_pd(frc + 4 * i + 8), _mm256_load_pd(frc + 4 * i + 12)};
     __m256d fx, fy, fz, fw;
@@ -563,40 +563,29 @@ double drift_and_lay_out(const Drift& d, double* s, const double* ref, const dou
     __m256d r[4];
     cell.rows4(x, y, z, diameter, i, r);
     const __m256d d2 = cell.displacement4(x, y, z, ref, n, i);
-    if (all) {
-      acc = _mm256_add_pd(acc, squared4(fx, fy, fz));
-      for (int k = 0; k < 4; ++k)
-        _mm256_store_pd(frc + 4 * i + 4 * k, zero);
-      _mm256_storeu_pd(s + i, x);
-      _mm256_storeu_pd(s + n + i, y);
-      _mm256_storeu_pd(s + 2 * n + i, z);
-      for (int k = 0; k < 4; ++k)
+    acc = _mm256_add_pd(acc, squared4(fx, fy, fz));
+    for (int k = 0; k < 4; ++k)
+      _mm256_store_pd(frc + 4 * i + 4 * k, zero);
+    _mm256_storeu_pd(s + i, x);
+    _mm256_storeu_pd(s + n + i, y);
+    _mm256_storeu_pd(s + 2 * n + i, z);
+    for (int k = 0; k < 4; ++k) {
+      if constexpr (Set == DriftSet::kGhosts)
+        _mm256_stream_pd(pos + 4 * i + 4 * k, r[k]);
+      else
         _mm256_store_pd(pos + 4 * i + 4 * k, r[k]);
-      m = _mm256_max_pd(d2, m);  // a NaN never wins the max, but it poisons the sum
-      sum = _mm256_add_pd(sum, d2);
-    } else {
-      acc = _mm256_mask_add_pd(acc, k8, acc, squared4(fx, fy, fz));
-      _mm256_mask_storeu_pd(s + i, k8, x);
-      _mm256_mask_storeu_pd(s + n + i, k8, y);
-      _mm256_mask_storeu_pd(s + 2 * n + i, k8, z);
-      for (int k = 0; k < 4; ++k) {
-        if (take >> k & 1) {
-          _mm256_store_pd(frc + 4 * i + 4 * k, zero);
-          _mm256_store_pd(pos + 4 * i + 4 * k, r[k]);
-        }
-      }
-      m = _mm256_mask_max_pd(m, k8, d2, m);
-      sum = _mm256_mask_add_pd(sum, k8, sum, d2);
     }
+    m = _mm256_max_pd(d2, m);  // a NaN never wins the max, but it poisons the sum
+    sum = _mm256_add_pd(sum, d2);
   }
+  if constexpr (Set == DriftSet::kGhosts)
+    _mm_sfence();  // the streamed rows are in memory before the pass ends
   alignas(32) double lanes[4];
   _mm256_store_pd(lanes, m);
   double mx = std::max(std::max(lanes[0], lanes[1]), std::max(lanes[2], lanes[3]));
   double total = lane_sum(sum), rest = 0.0;
-  const unsigned last = i < hi ? lanes_of(i) : 0;
-  for (; i < hi; ++i) {
-    if (Set != DriftSet::kAll && !(last >> ((i - lo) & 3) & 1))
-      continue;
+  // The last, partial block.
+  for (const bool take = i < hi && takes(i); take && i < hi; ++i) {
     double* f = frc + 4 * i;
     rest += squared1(f);
     double x = s[i], y = s[n + i], z = s[2 * n + i];
@@ -882,13 +871,29 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
       // reads this range's rows, and every earlier one that does has finished its pair loop.
       const auto drift_set = [&]<DriftSet Set>(double& f2) {
         return drift_and_lay_out<Set>(*drift, moved, ref, state.diameter.data(), n, *next, lo, hi,
-                                      pos, frc, f2, cs.ghost_bits.data());
+                                      pos, frc, f2, cs.ghost_blocks.data());
       };
       if (nthr == 1) {
         lanes = vector_pairs<PairMode::kAll>(pos, shift, frc, nullptr, owner, entries, k0, k1, lo,
                                              hi, idle);
       } else {
         double* mine = ghosts + std::size_t(tid) * 4 * rows;
+        // Reused rows that the previous pass streamed to memory (see drift_and_lay_out): this
+        // thread's partners in later ranges and its own blocks that earlier threads read.
+        // Requested all at once, their loads overlap; met one by one, each would stall the loop.
+        if (reuse) {
+          const auto fetch = [&](std::size_t j) {
+            _mm_prefetch(reinterpret_cast<const char*>(pos + 4 * j), _MM_HINT_T0);
+          };
+          for (const std::uint32_t j : cs.written)
+            fetch(j);
+          for (std::size_t b = 0; b < cs.ghost_blocks.size(); ++b) {
+            if (cs.ghost_blocks[b]) {
+              for (std::size_t j = lo + 4 * b; j < std::min(lo + 4 * b + 4, hi); ++j)
+                fetch(j);
+            }
+          }
+        }
         // The ghost rows this thread writes start at zero. Zeroed here, by their writer, rather
         // than by their reader after adding them: a cache line then changes core twice per pass,
         // not three or four times.

@@ -131,8 +131,8 @@ class ForceField {
     // particles of the range that are partners of t's pairs, in increasing order, at
     // [ghost_start[t], ghost_start[t + 1]); kept until the list or the thread count changes.
     std::vector<std::uint32_t> ghost_rows, ghost_start;
-    // The same particles as bits, four per byte from the start of the range.
-    std::vector<std::uint8_t> ghost_bits;
+    // Per block of four particles from the start of the range: 1 if the block holds one of them.
+    std::vector<std::uint8_t> ghost_blocks;
     // The partners of this thread's pairs that later threads own: its ghost rows, sorted.
     std::vector<std::uint32_t> written;
     std::uint64_t ghost_generation = 0;
