@@ -729,9 +729,11 @@ VectorSums vector_pairs(const double* pos, const double* shift, double* frc, dou
 }  // namespace
 
 // Waits for each earlier thread's pair loop (its flag) and adds its ghost rows for this
-// thread's range to the force rows, in thread order.
+// thread's range to the force rows, in thread order; then raises this thread's `added_` flag.
 void ForceField::add_ghost_rows(int tid, std::uint64_t pass, std::size_t rows, double* ghosts,
                                 double* frc) const {
+  if (!ghosts)  // one thread
+    return;
   const ContactScratch& cs = scratch_[tid];
   for (int t = 0; t < tid; ++t) {
     while (done_.flags[t].pass.load(std::memory_order_acquire) != pass)
@@ -742,6 +744,7 @@ void ForceField::add_ghost_rows(int tid, std::uint64_t pass, std::size_t rows, d
       _mm256_store_pd(frc + j, _mm256_add_pd(_mm256_load_pd(frc + j), _mm256_load_pd(theirs + j)));
     }
   }
+  added_.flags[tid].pass.store(pass, std::memory_order_release);
 }
 
 bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList& list,
@@ -764,7 +767,7 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
   double* pos = aligned_rows(rows_, span + page / 2 + 4 * rows + page);
   pos += (page - (reinterpret_cast<std::uintptr_t>(pos) / sizeof(double)) % page) % page;
   double* frc = pos + span + page / 2;
-  // Ghost rows (several threads): each thread zeroes the ones it writes before its pair loop.
+  // Ghost rows (several threads): zero between passes (see below).
   double* ghosts = nullptr;
   if (nt > 1) {
     if (ghosts_.size() != std::size_t(nt) * 4 * rows + 8)
@@ -773,6 +776,8 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
     if (done_.count < nt) {
       done_.flags = std::make_unique<PassFlag[]>(nt);
       done_.count = nt;
+      added_.flags = std::make_unique<PassFlag[]>(nt);
+      added_.count = nt;
     }
   }
   const std::uint64_t pass = ++passes_;
@@ -894,11 +899,6 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
             }
           }
         }
-        // The ghost rows this thread writes start at zero. Zeroed here, by their writer, rather
-        // than by their reader after adding them: a cache line then changes core twice per pass,
-        // not three or four times.
-        for (const std::uint32_t j : cs.written)
-          _mm256_store_pd(mine + 4 * std::size_t(j), _mm256_setzero_pd());
         lanes = vector_pairs<PairMode::kOwned>(pos, shift, frc, mine, owner, entries, k0, k1, lo,
                                                hi, idle);
         done_.flags[tid].pass.store(pass, std::memory_order_release);
@@ -924,6 +924,20 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
       vir[tid] << lane_sum(lanes.wxx), lane_sum(lanes.wyy), lane_sum(lanes.wzz),
           lane_sum(lanes.wxy), lane_sum(lanes.wxz), lane_sum(lanes.wyz);
       contacts[tid] = lanes.contacts;
+      if (tid + 1 < nthr) {
+        // This thread's ghost rows start the next pass at zero. Zeroed by their writer once
+        // their readers are done, rather than by their readers after adding them: a cache line
+        // then changes core twice per pass, not three or four times. And at the end of the pass
+        // rather than before the pair loop: the stores wait for the readers' cores to give the
+        // lines up, which now overlaps the later threads' drift.
+        for (int u = tid + 1; u < nthr; ++u) {
+          while (added_.flags[u].pass.load(std::memory_order_acquire) != pass)
+            _mm_pause();
+        }
+        double* mine = ghosts + std::size_t(tid) * 4 * rows;
+        for (const std::uint32_t j : cs.written)
+          _mm256_store_pd(mine + 4 * std::size_t(j), _mm256_setzero_pd());
+      }
     }
   }
 

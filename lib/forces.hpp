@@ -158,9 +158,10 @@ class ForceField {
   // compute_harmonic_vector).
   mutable std::vector<double> rows_;
   // Vector kernel on several threads: per thread, force rows for the partners of its pairs that
-  // other threads own (its ghosts, zeroed by it before its pair loop), and a flag per thread, set
-  // to the pass number once its pair loop is done, after which later threads add its ghosts to
-  // theirs.
+  // other threads own (its ghosts, zero between passes), and two flags per thread, set to the
+  // pass number: `done_` once its pair loop is done, after which later threads add its ghosts to
+  // theirs, and `added_` once it has added every earlier thread's ghosts, after which those
+  // threads zero them again.
   mutable std::vector<double> ghosts_;
   struct alignas(64) PassFlag {
     std::atomic<std::uint64_t> pass{0};
@@ -172,7 +173,7 @@ class ForceField {
     PassFlags(const PassFlags&) {}
     PassFlags& operator=(const PassFlags&) { return *this; }
   };
-  mutable PassFlags done_;
+  mutable PassFlags done_, added_;
   mutable std::uint64_t passes_ = 0;
   // Rows laid out ahead by a drifting pass, for the state it left in the cell `h` (xx, xy, yy,
   // zz), with the force rows zeroed and each thread's displacement measured (see
