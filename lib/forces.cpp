@@ -585,7 +585,8 @@ double drift_and_lay_out(const Drift& d, double* s, const double* ref, const dou
   double mx = std::max(std::max(lanes[0], lanes[1]), std::max(lanes[2], lanes[3]));
   double total = lane_sum(sum), rest = 0.0;
   // The last, partial block.
-  for (const bool take = i < hi && takes(i); take && i < hi; ++i) {
+  const std::size_t tail_end = i < hi && takes(i) ? hi : i;
+  for (; i < tail_end; ++i) {
     double* f = frc + 4 * i;
     rest += squared1(f);
     double x = s[i], y = s[n + i], z = s[2 * n + i];
@@ -878,11 +879,12 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
         return drift_and_lay_out<Set>(*drift, moved, ref, state.diameter.data(), n, *next, lo, hi,
                                       pos, frc, f2, cs.ghost_blocks.data());
       };
+      // This thread's ghost rows (several threads).
+      double* mine = nthr > 1 ? ghosts + std::size_t(tid) * 4 * rows : nullptr;
       if (nthr == 1) {
         lanes = vector_pairs<PairMode::kAll>(pos, shift, frc, nullptr, owner, entries, k0, k1, lo,
                                              hi, idle);
       } else {
-        double* mine = ghosts + std::size_t(tid) * 4 * rows;
         // Reused rows that the previous pass streamed to memory (see drift_and_lay_out): this
         // thread's partners in later ranges and its own blocks that earlier threads read.
         // Requested all at once, their loads overlap; met one by one, each would stall the loop.
@@ -934,7 +936,6 @@ bool ForceField::compute_harmonic_vector(const State& state, const NeighbourList
           while (added_.flags[u].pass.load(std::memory_order_acquire) != pass)
             _mm_pause();
         }
-        double* mine = ghosts + std::size_t(tid) * 4 * rows;
         for (const std::uint32_t j : cs.written)
           _mm256_store_pd(mine + 4 * std::size_t(j), _mm256_setzero_pd());
       }
