@@ -281,9 +281,10 @@ Summary steady_summary(Kind k, const Config& c, std::uint64_t seed) {
   return r.summary;
 }
 
-// The steady means of one configuration over independent seeds (one run each).
+// The steady means of one configuration over independent seeds (one run each), with each run's
+// block error, as replica_average() takes them.
 struct SeedMeans {
-  std::map<std::string, std::vector<double>> values;
+  std::map<std::string, std::vector<double>> means, errors;
   std::vector<double> energy_balance;
 };
 
@@ -291,24 +292,13 @@ SeedMeans seed_means(Kind k, const Config& c, std::uint64_t first_seed, int seed
   SeedMeans out;
   for (int s = 0; s < seeds; ++s) {
     const Summary sum = steady_summary(k, c, first_seed + std::uint64_t(s));
-    for (const char* name : {"sigma_xy", "pressure", "phi"})
-      out.values[name].push_back(sum.values.at(name));
+    for (const std::string name : {"sigma_xy", "pressure", "phi"}) {
+      out.means[name].push_back(sum.values.at(name));
+      out.errors[name].push_back(sum.values.at(name + "_err"));
+    }
     out.energy_balance.push_back(sum.values.at("energy_balance"));
   }
   return out;
-}
-
-struct MeanVar {
-  double mean = 0.0, var = 0.0;  // var: the sample variance (n - 1)
-};
-
-MeanVar mean_var(const std::vector<double>& v) {
-  MeanVar m;
-  for (double x : v)
-    m.mean += x / double(v.size());
-  for (double x : v)
-    m.var += (x - m.mean) * (x - m.mean) / double(v.size() - 1);
-  return m;
 }
 
 TEST_P(Contract, SteadyStateMeansAgreeWithReferenceEuler) {
@@ -332,8 +322,10 @@ TEST_P(Contract, SteadyStateMeansAgreeWithReferenceEuler) {
   // bit of the dynamics (which sends every chaotic run elsewhere) does not fail it by chance.
   const char* observables[] = {"sigma_xy", c.kind == Kind::kVolume ? "pressure" : "phi"};
   for (const char* name : observables) {
-    const MeanVar ma = mean_var(a.values.at(name)), mb = mean_var(b.values.at(name));
-    const double pooled = ((kReferenceSeeds - 1) * ma.var + (kSeeds - 1) * mb.var) /
+    const ReplicaAverage ma = replica_average(a.means.at(name), a.errors.at(name));
+    const ReplicaAverage mb = replica_average(b.means.at(name), b.errors.at(name));
+    const double pooled = ((kReferenceSeeds - 1) * ma.replica_std * ma.replica_std +
+                           (kSeeds - 1) * mb.replica_std * mb.replica_std) /
                           double(kReferenceSeeds + kSeeds - 2);
     const double err = std::sqrt(pooled * (1.0 / kReferenceSeeds + 1.0 / kSeeds));
     ASSERT_GT(err, 0.0) << name;
