@@ -8,6 +8,12 @@
 // timing one window per thread count, and the figures are the median window (the fastest in
 // brackets). The speed-up is the ratio of the medians.
 //
+// With P > 1 cores, each round also times a control: P independent one-thread runs of N/P
+// particles at once, against one such run alone. Runs that share nothing but the hardware show
+// what the machine itself gives the extra threads over the same period (caches, memory and
+// clock shared with the first thread, and with other tenants); the engine's own speed-up falls
+// short of it by what splitting one run across threads costs.
+//
 // usage: bench_throughput [--quick] [--steps S] [--rounds R] [--sizes 1000,10000]
 #include <omp.h>
 
@@ -57,6 +63,27 @@ Result time_window(Model& m, const ConstantVolume& ens, Euler& euler, long steps
           m.force_field().vector_kernel(m.state().size()) ? "avx512" : "portable"};
 }
 
+// The control: `runs` independent one-thread runs of the state `part` at once, one per thread,
+// `steps` steps each after a warm-up. Returns the particle-steps per second of all of them.
+double independent_runs(const State& part, const ConstantVolume& ens, int runs, long steps,
+                        double dt) {
+  std::vector<double> seconds(runs, 0.0);
+#pragma omp parallel num_threads(runs)
+  {
+    const int t = omp_get_thread_num();
+    Model m(part, ModelOptions{2.0, 0.3, 1, 20});
+    Euler euler(dt);
+    euler.advance(m, ens, m.state().time + double(steps / 10) * dt);
+#pragma omp barrier
+    const auto w0 = std::chrono::steady_clock::now();
+    euler.advance(m, ens, m.state().time + double(steps) * dt);
+    seconds[t] = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
+  }
+  // Every run does the same work; the throughput ends with the slowest.
+  const double slowest = *std::max_element(seconds.begin(), seconds.end());
+  return double(runs) * double(steps) * double(part.size()) / slowest;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -102,6 +129,16 @@ int main(int argc, char** argv) {
       pre.advance(m, ens, m.state().time + (quick ? 20.0 : 200.0));
     }
     const State steady = m.state();
+    // The control's system: N/P particles, sheared the same way.
+    State part;
+    if (all > 1) {
+      Model h(random_state(n / std::size_t(all), phi, 43), ModelOptions{2.0, 0.3, all, 20});
+      Euler pre(dt);
+      ConstantVolume fast(1e-3);
+      pre.advance(h, fast, quick ? 50.0 : 300.0);
+      pre.advance(h, ens, h.state().time + (quick ? 20.0 : 200.0));
+      part = h.state();
+    }
     const long steps = steps_override > 0
                            ? steps_override
                            : (quick ? 200 : long(std::max<std::size_t>(2000, 2e8 / n)));
@@ -111,6 +148,7 @@ int main(int argc, char** argv) {
     // Every thread count runs the same stretch of the same trajectory in every round: each
     // round starts from the steady state again.
     std::vector<std::vector<Result>> results(counts.size());
+    std::vector<double> control;  // per round: P runs at once over one alone
     for (int r = 0; r < rounds; ++r) {
       for (std::size_t c = 0; c < counts.size(); ++c) {
         Model run(steady, ModelOptions{2.0, 0.3, counts[c], 20});
@@ -118,13 +156,18 @@ int main(int argc, char** argv) {
         time_window(run, ens, euler, steps / 10, dt);  // warm caches and buffers
         results[c].push_back(time_window(run, ens, euler, steps, dt));
       }
+      if (all > 1) {
+        const double alone = independent_runs(part, ens, 1, steps / 2, dt);
+        control.push_back(independent_runs(part, ens, all, steps / 2, dt) / alone);
+      }
     }
     const auto median = [](std::vector<double> v) {
       std::sort(v.begin(), v.end());
       const std::size_t k = v.size() / 2;
       return v.size() % 2 ? v[k] : 0.5 * (v[k - 1] + v[k]);
     };
-    double base = 0.0;
+    double base = 0.0, engine = 1.0;
+    std::vector<double> per_round;  // the engine's speed-up on all cores, per round
     for (std::size_t c = 0; c < counts.size(); ++c) {
       std::vector<double> wall, cpu;
       for (const Result& x : results[c]) {
@@ -134,11 +177,23 @@ int main(int argc, char** argv) {
       const double med = median(wall), best = *std::min_element(wall.begin(), wall.end());
       if (c == 0)
         base = med;
+      engine = base / med;
+      for (int r = 0; c > 0 && r < rounds; ++r)
+        per_round.push_back(results[0][r].ns_per_particle_step /
+                            results[c][r].ns_per_particle_step);
       const Result& x = results[c].back();
       char figure[64];
       std::snprintf(figure, sizeof figure, "%.2f (%.2f)", med, best);
       std::printf("%8zu %8d %22s %14.2f %16.3e %10.2f %8zu %8zu %s\n", n, counts[c], figure,
                   median(cpu), 1e9 / med, base / med, x.builds, x.refreshes, x.kernel);
+    }
+    if (all > 1) {
+      const auto [elo, ehi] = std::minmax_element(per_round.begin(), per_round.end());
+      const auto [clo, chi] = std::minmax_element(control.begin(), control.end());
+      std::printf(
+          "%8zu %8d speed-up per round %.2f-%.2f; control, %d runs of N/%d at once: "
+          "%.2f x one alone (%.2f-%.2f); engine/control %.2f\n",
+          n, all, *elo, *ehi, all, all, median(control), *clo, *chi, engine / median(control));
     }
     std::fflush(stdout);
   }
