@@ -52,6 +52,14 @@ double integrated_autocorrelation(const std::vector<double>& x) {
   const std::size_t n = x.size();
   if (n < 4)
     return 0.5;
+  // A constant series (phi at constant volume) has no correlation time. Its deviations from
+  // the computed mean are that mean's round-off, the same for every sample, so they would look
+  // perfectly correlated (tau ~ n); and that round-off grows with n, so it cannot be told from
+  // real variation by the variance. The spread of the values themselves can: variation at the
+  // round-off level of the values is none. (NaN: also 0.5.)
+  const auto [lo, hi] = std::minmax_element(x.begin(), x.end());
+  if (!(*hi - *lo > 1e-13 * std::max(std::abs(*lo), std::abs(*hi))))
+    return 0.5;
   double m = 0.0;
   for (double v : x)
     m += v;
@@ -60,10 +68,7 @@ double integrated_autocorrelation(const std::vector<double>& x) {
   for (double v : x)
     c0 += (v - m) * (v - m);
   c0 /= double(n);
-  // A constant series (phi at constant volume) leaves only round-off of the mean, which is
-  // perfectly correlated and would give tau ~ n: treat variance at round-off level as none.
-  const double eps = 1e-13 * std::max(std::abs(m), 1e-300);
-  if (!(c0 > eps * eps))
+  if (!(c0 > 0.0))
     return 0.5;
   double tau = 0.5;
   for (std::size_t k = 1; k < n / 2; ++k) {

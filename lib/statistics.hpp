@@ -19,7 +19,7 @@ BlockAverage block_average(const std::vector<double>& x, std::size_t blocks);
 
 // Integrated autocorrelation time in units of samples, tau = 1/2 + sum_k rho(k), with Sokal's
 // self-consistent window (stop at the first k >= c tau, c = 6). Returns 0.5 for white noise and
-// for a constant series (variance at the round-off level of the mean).
+// for a constant series (values that vary at round-off level only).
 double integrated_autocorrelation(const std::vector<double>& x);
 
 // K independent replicas of one observable, each with its own mean and block error.

@@ -222,6 +222,9 @@ TEST(Statistics, ConstantSeriesHasNoCorrelationTime) {
   // phi at constant volume: a constant whose mean carries round-off must not look correlated.
   const std::vector<double> phi(3000, 0.1 + 0.2 + 0.319439);
   EXPECT_DOUBLE_EQ(integrated_autocorrelation(phi), 0.5);
+  // A long run's: the mean's round-off grows with the length (here well above 1e-13 of it).
+  for (const std::size_t n : {10001, 20001, 200001})
+    EXPECT_DOUBLE_EQ(integrated_autocorrelation(std::vector<double>(n, 0.62)), 0.5) << n;
   std::vector<double> alternating(3000);
   for (std::size_t k = 0; k < alternating.size(); ++k)
     alternating[k] = 0.6 + (k % 2 ? 1e-6 : -1e-6);  // anticorrelated: clamped at white noise
