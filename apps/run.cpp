@@ -45,7 +45,7 @@ dt = 0.1          # tau_0; dt >= 0.4 oscillates for explicit Euler (SPEC section
 
 [run]
 t_eq = 1000.0     # equilibration (not averaged)
-t_av = 2000.0     # averaging window
+t_av = 10000.0    # averaging window: 20 blocks of 500, several correlation times each
 sample_every = 1.0
 blocks = 20
 
