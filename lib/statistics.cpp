@@ -6,6 +6,9 @@
 #include <stdexcept>
 #include <string>
 
+#include <gsl/gsl_fft_halfcomplex.h>
+#include <gsl/gsl_fft_real.h>
+
 #include "lib/error.hpp"
 
 namespace jamflow {
@@ -64,19 +67,31 @@ double integrated_autocorrelation(const std::vector<double>& x) {
   for (double v : x)
     m += v;
   m /= double(n);
-  double c0 = 0.0;
-  for (double v : x)
-    c0 += (v - m) * (v - m);
-  c0 /= double(n);
+  // The autocovariance at every lag, c_k = (1/n) sum_i (x_i - m)(x_{i+k} - m), from the power
+  // spectrum of the series padded with zeros to at least 2n (so that no lag wraps around): O(n
+  // log n), where the sums lag by lag cost n per lag, and the window below can reach n/2 lags
+  // for a long correlation time.
+  std::size_t len = 1;
+  while (len < 2 * n)
+    len *= 2;
+  std::vector<double> c(len, 0.0);
+  for (std::size_t i = 0; i < n; ++i)
+    c[i] = x[i] - m;
+  gsl_fft_real_radix2_transform(c.data(), 1, len);
+  // Half-complex layout: c[0] and c[len/2] are real, c[k] and c[len - k] are Re and Im of k.
+  c[0] *= c[0];
+  c[len / 2] *= c[len / 2];
+  for (std::size_t k = 1; k < len / 2; ++k) {
+    c[k] = c[k] * c[k] + c[len - k] * c[len - k];
+    c[len - k] = 0.0;
+  }
+  gsl_fft_halfcomplex_radix2_inverse(c.data(), 1, len);
+  const double c0 = c[0] / double(n);
   if (!(c0 > 0.0))
     return 0.5;
   double tau = 0.5;
   for (std::size_t k = 1; k < n / 2; ++k) {
-    double ck = 0.0;
-    for (std::size_t i = 0; i + k < n; ++i)
-      ck += (x[i] - m) * (x[i + k] - m);
-    ck /= double(n);
-    tau += ck / c0;
+    tau += c[k] / double(n) / c0;
     if (double(k) >= 6.0 * tau)
       break;
   }

@@ -205,36 +205,6 @@ TEST(ConstantPressureRun, ShortBlocksWarnAboutAutocorrelation) {
   EXPECT_TRUE(found);
 }
 
-TEST(Statistics, ReplicaAverage) {
-  const ReplicaAverage one = replica_average({2.0}, {0.3});
-  EXPECT_DOUBLE_EQ(one.mean, 2.0);
-  EXPECT_DOUBLE_EQ(one.block_error, 0.3);
-  EXPECT_DOUBLE_EQ(one.replica_error, 0.0);
-  const ReplicaAverage r = replica_average({1.0, 2.0, 3.0}, {0.3, 0.4, 1.2});
-  EXPECT_DOUBLE_EQ(r.mean, 2.0);
-  EXPECT_DOUBLE_EQ(r.block_error, 1.3 / 3.0);  // sqrt(0.09 + 0.16 + 1.44) = 1.3
-  EXPECT_DOUBLE_EQ(r.replica_std, 1.0);
-  EXPECT_DOUBLE_EQ(r.replica_error, 1.0 / std::sqrt(3.0));
-  EXPECT_THROW(replica_average({1.0}, {}), std::invalid_argument);
-}
-
-TEST(Statistics, ConstantSeriesHasNoCorrelationTime) {
-  // phi at constant volume: a constant whose mean carries round-off must not look correlated.
-  const std::vector<double> phi(3000, 0.1 + 0.2 + 0.319439);
-  EXPECT_DOUBLE_EQ(integrated_autocorrelation(phi), 0.5);
-  // A long run's: the mean's round-off grows with the length (here well above 1e-13 of it).
-  for (const std::size_t n : {10001, 20001, 200001})
-    EXPECT_DOUBLE_EQ(integrated_autocorrelation(std::vector<double>(n, 0.62)), 0.5) << n;
-  std::vector<double> alternating(3000);
-  for (std::size_t k = 0; k < alternating.size(); ++k)
-    alternating[k] = 0.6 + (k % 2 ? 1e-6 : -1e-6);  // anticorrelated: clamped at white noise
-  EXPECT_DOUBLE_EQ(integrated_autocorrelation(alternating), 0.5);
-  std::vector<double> ramp(3000);
-  for (std::size_t k = 0; k < ramp.size(); ++k)
-    ramp[k] = 0.6 + 1e-9 * double(k);  // tiny but real variation is still seen as correlated
-  EXPECT_GT(integrated_autocorrelation(ramp), 100.0);
-}
-
 TEST(ConstantPressureRun, ReplicasWriteSeriesAndCombinedSummary) {
   TempDir dir("replicas");
   const std::string file = dir.file("r.h5");
