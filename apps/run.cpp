@@ -253,9 +253,15 @@ Summary summarize(const RunSpec& spec, const Series& series) {
     const double tau = integrated_autocorrelation(*series_ptr) * spec.sample_every;
     out[std::string("tau_") + name] = tau;
     if (out["block_length"] < 2.0 * tau) {
+      // How much too small, for correlations that decay exponentially (more if slower).
+      const double low = 1.0 - block_error_ratio(out["block_length"], tau);
+      char text[160];
+      std::snprintf(text, sizeof text, " (tau = %.3g); block errors are about %.0f%% too small",
+                    tau, 100.0 * low);
       sum.warnings.push_back("block length " + fmt(out["block_length"]) +
-                             " is shorter than 2 autocorrelation times of " + name + " (tau = " +
-                             fmt(tau) + "); block errors are underestimated: lengthen t_av");
+                             " is shorter than 2 autocorrelation times of " + name + text +
+                             " (more if the correlations decay slower than exponentially): "
+                             "lengthen t_av");
     }
   }
   return sum;

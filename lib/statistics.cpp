@@ -98,6 +98,19 @@ double integrated_autocorrelation(const std::vector<double>& x) {
   return tau < 0.5 ? 0.5 : tau;
 }
 
+// The variance of the mean of a stationary series over a length T with correlation exp(-t/tau)
+// is (2 sigma^2 tau / T) (1 - (tau / T) (1 - exp(-T / tau))). Blocks of length B give means
+// with that variance at T = B; taken as independent, they estimate the variance of the mean
+// over M B as that over M, while its true value is 2 sigma^2 tau / (M B) for M B >> tau.
+double block_error_ratio(double block, double tau) {
+  if (!(block > 0.0) || !(tau >= 0.0))
+    throw std::invalid_argument("block_error_ratio: block must be > 0 and tau >= 0");
+  if (tau == 0.0)
+    return 1.0;
+  const double x = block / tau;
+  return std::sqrt(1.0 - (1.0 - std::exp(-x)) / x);
+}
+
 ReplicaAverage replica_average(const std::vector<double>& means,
                                const std::vector<double>& errors) {
   if (means.empty() || means.size() != errors.size())
