@@ -19,6 +19,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
@@ -121,24 +122,17 @@ int main(int argc, char** argv) {
   for (std::size_t n : sizes) {
     // Pre-shear once: relax the random overlaps and reach steady flow (strain 0.3).
     ConstantVolume ens(gdot);
-    Model m(random_state(n, phi, 42), ModelOptions{2.0, 0.3, all, 20});
-    {
+    const auto presheared = [&](std::size_t particles, std::uint64_t seed) {
+      Model m(random_state(particles, phi, seed), ModelOptions{2.0, 0.3, all, 20});
       Euler pre(dt);
       ConstantVolume fast(1e-3);
       pre.advance(m, fast, quick ? 50.0 : 300.0);  // strain 0.3 at a faster rate
       pre.advance(m, ens, m.state().time + (quick ? 20.0 : 200.0));
-    }
-    const State steady = m.state();
+      return m.state();
+    };
+    const State steady = presheared(n, 42);
     // The control's system: N/P particles, sheared the same way.
-    State part;
-    if (all > 1) {
-      Model h(random_state(n / std::size_t(all), phi, 43), ModelOptions{2.0, 0.3, all, 20});
-      Euler pre(dt);
-      ConstantVolume fast(1e-3);
-      pre.advance(h, fast, quick ? 50.0 : 300.0);
-      pre.advance(h, ens, h.state().time + (quick ? 20.0 : 200.0));
-      part = h.state();
-    }
+    const State part = all > 1 ? presheared(n / std::size_t(all), 43) : State{};
     const long steps = steps_override > 0
                            ? steps_override
                            : (quick ? 200 : long(std::max<std::size_t>(2000, 2e8 / n)));
