@@ -128,12 +128,13 @@ void CvodeSystem::apply(double t, const double* y) {
                            " box lengths) at t = " + fmt(t));
   }
 
-  State& st = model_.mutable_state();
-  for (std::size_t k = 0; k < 3 * n_; ++k)
-    st.pos[k] = s_ref_[k] + ds_[k];
-  st.box = box_at(t, v);
-  st.time = t;
-  model_.touch();
+  model_.modify([&](State& w) {
+    for (std::size_t k = 0; k < 3 * n_; ++k)
+      w.pos[k] = s_ref_[k] + ds_[k];
+    w.box = box_at(t, v);
+    w.time = t;
+  });
+  const State& st = model_.state();
   have_last_ = false;
   jacobian_at_last_ = false;
 
@@ -954,7 +955,7 @@ void Cvode::reset() {
 
 void Cvode::advance(Model& model, const Ensemble& ensemble, double t_end) {
   Impl& im = *impl_;
-  State& st = model.mutable_state();
+  const State& st = model.state();
   if (!(t_end > st.time))
     return;
   if (&model != im.model || &ensemble != im.ensemble) {

@@ -11,31 +11,22 @@ Euler::Euler(double dt) : dt_(dt) {
 }
 
 void Euler::advance(Model& model, const Ensemble& ensemble, double t_end) {
-  State& s = model.mutable_state();
   // The last step is shortened to land exactly on t_end; a remainder below 1e-9 dt is
   // absorbed into the previous step rather than taken as a tiny step.
-  while (s.time < t_end) {
+  while (model.state().time < t_end) {
     model.prepare_step();
-    double h = dt_;
-    if (t_end - s.time <= dt_ * (1.0 + 1e-9))
-      h = t_end - s.time;
-    if (!ensemble.has_piston()) {
-      // The new cell does not depend on this step's forces, so the drift is fused into the
-      // force pass (the same bits as the three steps below). The model moves the cell to `next`
-      // itself and needs no touch(): the pass has laid out the next one's rows ahead.
-      Box next = s.box;
-      next.strain += ensemble.shear_rate() * h;
-      model.evaluate_and_drift(Drift::of(next.h_inv(), h / kXiS), next);
-    } else {
-      const Evaluation& ev = model.evaluate();
-      const double v_new = s.box.volume() + h * ensemble.volume_rate(ev.pressure);
+    const double t = model.state().time;
+    const double h = (t_end - t <= dt_ * (1.0 + 1e-9)) ? t_end - t : dt_;
+    const Evaluation& ev = model.evaluate();
+    const double v_new = model.state().box.volume() +
+                         (ensemble.has_piston() ? h * ensemble.volume_rate(ev.pressure) : 0.0);
+    model.modify([&](State& s) {
       move_cell(s, ensemble.shear_rate() * h, v_new);
       // Forces of the old configuration, displacement mapped with the new cell: r advances by
       // exactly dt F / xi_s on top of the affine flow.
       drift_particles(s, ev.forces.force, h, model.force_field().threads());
-      model.touch();
-    }
-    s.time = (h == dt_) ? s.time + h : t_end;
+    });
+    model.set_time(h == dt_ ? t + h : t_end);
     ++steps_;
   }
 }

@@ -41,44 +41,38 @@ int Respa::order(const Ensemble& ensemble) const {
 }
 
 void Respa::particle_flow(Model& model, Scheme scheme, double h) {
-  State& s = model.mutable_state();
+  const int threads = model.force_field().threads();
   const Evaluation& ev0 = model.evaluate();
   if (scheme == Scheme::kEuler) {
-    drift_particles(s, ev0.forces.force, h, model.force_field().threads());
-    model.touch();
+    model.modify([&](State& s) { drift_particles(s, ev0.forces.force, h, threads); });
     return;
   }
   // Heun: predictor s* = s + h F0, corrector s + h/2 (F0 + F1) = s* + h/2 (F1 - F0). Applied as
   // an increment so that a neighbour-list rebuild (which wraps s) between the two is harmless.
   force0_ = ev0.forces.force;
-  drift_particles(s, force0_, h, model.force_field().threads());
-  model.touch();
+  model.modify([&](State& s) { drift_particles(s, force0_, h, threads); });
   const Evaluation& ev1 = model.evaluate();
   const std::vector<double>& f1 = ev1.forces.force;
   for (std::size_t k = 0; k < force0_.size(); ++k)
     force0_[k] = f1[k] - force0_[k];
-  drift_particles(s, force0_, 0.5 * h, model.force_field().threads());
-  model.touch();
+  model.modify([&](State& s) { drift_particles(s, force0_, 0.5 * h, threads); });
 }
 
 void Respa::collective_flow(Model& model, const Ensemble& ensemble, Scheme scheme, double h) {
-  State& s = model.mutable_state();
   const double dstrain = ensemble.shear_rate() * h;
+  const double v0 = model.state().box.volume();
   if (!ensemble.has_piston()) {
     // Affine shear advection only: linear in time, exact with any scheme.
-    move_cell(s, dstrain, s.box.volume());
-    model.touch();
+    model.modify([&](State& s) { move_cell(s, dstrain, v0); });
     return;
   }
-  const double v0 = s.box.volume();
   const double rate0 = ensemble.volume_rate(model.evaluate().pressure);
-  move_cell(s, dstrain, v0 + h * rate0);  // throws IntegrationError on V <= 0 or non-finite
-  model.touch();
+  // move_cell throws IntegrationError on V <= 0 or non-finite.
+  model.modify([&](State& s) { move_cell(s, dstrain, v0 + h * rate0); });
   if (scheme == Scheme::kEuler)
     return;
   const double rate1 = ensemble.volume_rate(model.evaluate().pressure);
-  move_cell(s, 0.0, v0 + 0.5 * h * (rate0 + rate1));
-  model.touch();
+  model.modify([&](State& s) { move_cell(s, 0.0, v0 + 0.5 * h * (rate0 + rate1)); });
 }
 
 void Respa::step(Model& model, const Ensemble& ensemble, double h) {
@@ -99,17 +93,15 @@ void Respa::step(Model& model, const Ensemble& ensemble, double h) {
 }
 
 void Respa::advance(Model& model, const Ensemble& ensemble, double t_end) {
-  State& s = model.mutable_state();
   const double dt = options_.dt;
   // As in Euler: the last step is shortened to land exactly on t_end, and a remainder below
   // 1e-9 dt is absorbed into the previous step.
-  while (s.time < t_end) {
+  while (model.state().time < t_end) {
     model.prepare_step();  // no history to drop: every step starts from the state alone
-    double h = dt;
-    if (t_end - s.time <= dt * (1.0 + 1e-9))
-      h = t_end - s.time;
+    const double t = model.state().time;
+    const double h = (t_end - t <= dt * (1.0 + 1e-9)) ? t_end - t : dt;
     step(model, ensemble, h);
-    s.time = (h == dt) ? s.time + h : t_end;
+    model.set_time(h == dt ? t + h : t_end);
     ++steps_;
   }
 }

@@ -13,12 +13,11 @@ namespace jamflow {
 Model::Model(State state, const ModelOptions& options)
     : state_(std::move(state)),
       options_(options),
-      field_(options.alpha, options.threads),
+      field_(options.alpha, options.threads, options.kernel),
       list_(options.skin) {
   if (state_.size() < 2)
     throw ConfigError("[system] N must be at least 2");
   particle_volume_ = state_.particle_volume();
-  field_.use_portable_kernel(options.portable_kernel);
 }
 
 void Model::reset_state(State state) {
@@ -26,12 +25,10 @@ void Model::reset_state(State state) {
   particle_volume_ = state_.particle_volume();
   list_.invalidate();
   fresh_ = false;
-  rows_ahead_ = false;
   sorted_once_ = false;
 }
 
 void Model::refresh_list(bool renew) {
-  rows_ahead_ = false;  // a rebuild wraps the positions
   switch (list_.status(state_, field_.threads())) {
     case NeighbourList::Status::kValid:
       // The force pass measures the displacement in a loop of its own; at the very limit its
@@ -63,30 +60,6 @@ const Evaluation& Model::evaluate() {
   }
   observe();
   fresh_ = true;
-  return eval_;
-}
-
-const Evaluation& Model::evaluate_and_drift(const Drift& drift, const Box& next) {
-  if (!list_.built() || list_.inner_reference().size() != state_.pos.size())
-    refresh_list();
-  const Eigen::Matrix3d h_next = next.h();
-  const bool untouched = rows_ahead_;
-  rows_ahead_ = false;
-  if (!field_.compute_and_drift(state_, list_, eval_.forces, drift, h_next, untouched)) {
-    // The list no longer holds (or a position is not finite): renew it and repeat; the
-    // second pass stops only for a non-finite state, which evaluate() then reports.
-    refresh_list(true);
-    if (!field_.compute_and_drift(state_, list_, eval_.forces, drift, h_next)) {
-      fresh_ = false;
-      evaluate();
-      throw IntegrationError("the neighbour list does not hold after a rebuild at t = " +
-                             std::to_string(state_.time));
-    }
-  }
-  observe();
-  state_.box = next;
-  fresh_ = false;  // the state has moved on
-  rows_ahead_ = true;
   return eval_;
 }
 
@@ -123,7 +96,7 @@ bool Model::prepare_step() {
     changed = true;
   }
   if (changed)
-    touch();
+    fresh_ = false;
   return changed;
 }
 

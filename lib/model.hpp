@@ -1,11 +1,14 @@
 // The evaluated system: State + neighbour list + force field, with cached observables.
 //
-// Integrators read forces and observables through evaluate() and change the State through
-// the mutators below; the Model keeps the neighbour list valid (rebuilding when the
-// displacement bound says so) and never returns forces for a stale configuration.
+// Integrators read forces and observables through evaluate() and change the State only through
+// modify(), which drops the cached evaluation; the Model keeps the neighbour list valid
+// (rebuilding when the displacement bound says so) and never returns forces for a stale
+// configuration.
 #pragma once
 #include <Eigen/Dense>
 #include <cstdint>
+#include <string>
+#include <utility>
 
 #include "lib/forces.hpp"
 #include "lib/neighbour_list.hpp"
@@ -32,8 +35,8 @@ struct ModelOptions {
   // Reorder particles by cell every this many list rebuilds (0 = never). Reordering only
   // happens in prepare_step(), never inside a right-hand-side evaluation.
   int sort_every = 20;
-  // Use the portable force kernel even where the vector one is available (comparisons).
-  bool portable_kernel = false;
+  // The force backend (see lib/kernels/backend.hpp): "auto", "simd", "portable" or "reference".
+  std::string kernel = "auto";
 };
 
 class Model {
@@ -47,20 +50,15 @@ class Model {
 
   // Forces and observables of the current configuration (computed once, then cached).
   const Evaluation& evaluate();
-  // The particle drift of an explicit Euler step fused into the force pass: the observables of
-  // the current configuration are evaluated, every particle then moves by s += D F, and the
-  // cell becomes `next` (D is mapped with it). Gives the same state, bit for bit, as evaluate()
-  // followed by the cell change and the drift with the evaluation's forces, but the returned
-  // evaluation holds no forces. Needs no touch(); the pass prepares the next one's rows, which
-  // that pass uses if nothing else changes the state in between.
-  const Evaluation& evaluate_and_drift(const Drift& drift, const Box& next);
-
-  // Mutable access to the state. Call touch() after changing positions or the cell.
-  State& mutable_state() { return state_; }
-  void touch() {
+  // Changes the state: f(State&) is called with the state, and the cached evaluation is dropped
+  // afterwards. This is the only write access, so an evaluation can never be stale.
+  template <class F>
+  decltype(auto) modify(F&& f) {
     fresh_ = false;
-    rows_ahead_ = false;
+    return std::forward<F>(f)(state_);
   }
+  // The clock alone (no force depends on it): keeps the cached evaluation.
+  void set_time(double t) { state_.time = t; }
 
   // Between steps: applies a due Lees–Edwards remap (returns true if one happened, so that
   // integrators drop their history) and may reorder particles in memory (returns true too).
@@ -85,8 +83,6 @@ class Model {
   NeighbourList list_;
   Evaluation eval_;
   bool fresh_ = false;
-  // Nothing has changed the state since evaluate_and_drift() (see ForceField::compute_and_drift).
-  bool rows_ahead_ = false;
   std::size_t evaluations_ = 0;
   std::size_t builds_at_last_sort_ = 0;
   bool sorted_once_ = false;

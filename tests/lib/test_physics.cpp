@@ -236,43 +236,6 @@ TEST(Forces, ThreadCountChangesOnlyRoundOff) {
   }
 }
 
-// The AVX-512 kernel (alpha_r = 2) against the portable blocked kernel on the same list, on a
-// sheared state with unwrapped coordinates, on one and two threads (two threads: many pairs
-// cross a range boundary, and the last chunk of each range is partial).
-TEST(Forces, VectorKernelMatchesPortableKernel) {
-  for (std::size_t n : {100u, 300u, 2000u}) {
-    Model m(random_state(n, 0.64, 21), ModelOptions{2.0, 0.3, 2, 0});
-    Euler(0.1).advance(m, ConstantVolume(1e-2), 30.0);  // strain 0.3, unwrapped positions
-    const State& s = m.state();
-    NeighbourList list(0.3);
-    list.build(s);
-    // Three threads: a range then takes ghost rows from two earlier threads.
-    for (int threads : {1, 2, 3}) {
-      ForceField fast(2.0, threads), plain(2.0, threads);
-      plain.use_portable_kernel(true);
-      if (!fast.vector_kernel(s.size()))
-        GTEST_SKIP() << "built without AVX-512VL: only the portable kernel exists";
-      ASSERT_FALSE(plain.vector_kernel(s.size()));
-      ForceResult a, b, again;
-      fast.compute(s, list, a);
-      plain.compute(s, list, b);
-      // A pass starts its ghost rows from zero: the next one gives the same bits.
-      fast.compute(s, list, again);
-      ASSERT_EQ(a.force, again.force) << "n " << n << " threads " << threads;
-      ASSERT_GT(b.contacts, s.size());
-      EXPECT_EQ(a.contacts, b.contacts);
-      // Real-space rows against scaled differences: the pair vectors differ in the last bits
-      // (|r| ~ 1, positions up to ~20): 1e-13 absolute on forces of order 1e-2.
-      for (std::size_t k = 0; k < a.force.size(); ++k)
-        ASSERT_NEAR(a.force[k], b.force[k], 1e-13) << "n " << n << " threads " << threads;
-      EXPECT_NEAR(a.energy, b.energy, 1e-12 * b.energy);
-      EXPECT_NEAR(a.force_squared, b.force_squared, 1e-11 * b.force_squared);
-      const double scale = b.virial.cwiseAbs().maxCoeff();
-      EXPECT_LT((a.virial - b.virial).cwiseAbs().maxCoeff(), 1e-12 * scale);
-    }
-  }
-}
-
 // Rows are filled by several threads into separate buffers and joined: same lists.
 TEST(NeighbourList, ThreadCountDoesNotChangeTheLists) {
   State s = random_state(5000, 0.64, 3);
@@ -334,9 +297,8 @@ TEST(NeighbourList, InnerListIsRefreshedBeforeAContactIsMissed) {
   EXPECT_EQ(list.status(t), NeighbourList::Status::kValid);
   {  // the force pass measures the same displacement, for Model's per-step check
     for (int threads : {1, 2}) {
-      for (bool portable : {false, true}) {
-        ForceField ff(2.0, threads);
-        ff.use_portable_kernel(portable);
+      for (const char* kernel : {"simd", "portable"}) {
+        const ForceField ff(2.0, threads, kernel);
         ForceResult r;
         ff.compute(t, list, r);
         EXPECT_NEAR(r.max_drift2, 0.02 * 0.02, 1e-14);
@@ -369,9 +331,31 @@ TEST(Model, NonFinitePositionIsAnError) {
   State s = random_state(300, 0.6, 5);
   Model m(s, ModelOptions{2.0, 0.3, 2, 0});
   m.evaluate();
-  m.mutable_state().y()[17] = std::nan("");
-  m.touch();
+  m.modify([](State& w) { w.y()[17] = std::nan(""); });
   EXPECT_THROW(m.evaluate(), IntegrationError);
+}
+
+// A change through modify() drops the cached evaluation: the next one is that of the new
+// configuration, the same as a fresh model's. set_time() alone keeps it.
+TEST(Model, ModifyDropsTheCachedEvaluation) {
+  const State s = random_state(300, 0.64, 5);
+  Model m(s, ModelOptions{2.0, 0.3, 1, 0});
+  const double before = m.evaluate().forces.energy;
+  m.set_time(1.0);
+  EXPECT_EQ(&m.evaluate(), &m.evaluate());
+  EXPECT_EQ(m.evaluate().forces.energy, before);
+  // Every particle moves (by up to 0.03 of the cell, depending on its height).
+  const auto move = [](State& w) {
+    for (std::size_t i = 0; i < w.size(); ++i)
+      w.x()[i] += 0.03 * w.y()[i];
+  };
+  m.modify(move);
+  const double after = m.evaluate().forces.energy;
+  EXPECT_NE(after, before);
+  State moved = s;
+  move(moved);
+  Model fresh(moved, ModelOptions{2.0, 0.3, 1, 0});
+  EXPECT_EQ(after, fresh.evaluate().forces.energy);
 }
 
 TEST(State, WrapKeepsUnwrappedCoordinates) {

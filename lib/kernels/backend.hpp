@@ -1,0 +1,62 @@
+// Force backends: interchangeable implementations of one force pass (SPEC §3). A pass takes
+// the state and the neighbour list's inner pairs and yields forces, potential energy and the
+// virial W_ab = sum_{i<j} r_ij,a f_ij,b (r_ij = r_i - r_j, minimum image; f_ij the force on i
+// from j). Backends exchange whole passes, never single pairs:
+//   reference  every pair, minimum image, no list: O(N^2), the yardstick of the tests;
+//   portable   blocked loops that any compiler vectorises (lib/kernels/portable.cpp);
+//   simd       one Highway kernel compiled for several instruction sets, the best one picked
+//              at run time (lib/kernels/simd.cpp).
+// All three evaluate the same pair law (lib/potential.hpp) for every alpha_r.
+#pragma once
+#include <Eigen/Dense>
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "lib/neighbour_list.hpp"
+#include "lib/state.hpp"
+
+namespace jamflow {
+
+struct ForceResult {
+  std::vector<double> force;  // real-space forces, SoA like State::pos
+  double energy = 0.0;
+  Eigen::Matrix3d virial = Eigen::Matrix3d::Zero();
+  std::size_t contacts = 0;
+  double force_squared = 0.0;  // sum_i |F_i|^2 (the dissipation times xi_s)
+  // Largest squared displacement since the list's inner reference (real space, current cell),
+  // taken in the same pass so that checking the list costs no pass of its own; infinite
+  // when the list has no reference for this state (and always for the reference backend).
+  // NaN when a position is not finite.
+  double max_drift2 = 0.0;
+};
+
+class ForceBackend {
+ public:
+  virtual ~ForceBackend() = default;
+  // "reference", "portable" or "simd".
+  virtual std::string name() const = 0;
+  // The instruction set the pass runs on: for simd the Highway target chosen at run time
+  // (e.g. "AVX3", "AVX2"); for the others the build's baseline.
+  virtual std::string target() const = 0;
+  // One force pass. The list must be valid for the state (the reference backend ignores it).
+  virtual void compute(const State& state, const NeighbourList& list, ForceResult& out) = 0;
+};
+
+// The backends a user can ask for, and "auto" (simd where the CPU has a vector target for it,
+// else portable).
+inline const std::vector<std::string>& backend_kinds() {
+  static const std::vector<std::string> kinds = {"auto", "simd", "portable", "reference"};
+  return kinds;
+}
+
+// alpha_r in [1.2, 3]; threads >= 1. An unknown kind is a ConfigError. The environment
+// variable JAMFLOW_KERNEL, when set, overrides "auto" (for forcing the portable path in a test
+// run); JAMFLOW_SIMD_TARGET (e.g. "AVX2") restricts the simd backend to one target.
+std::unique_ptr<ForceBackend> make_backend(const std::string& kind, double alpha_r, int threads);
+
+// The instruction set the build's baseline code is compiled for (e.g. "x86-64").
+std::string baseline_target();
+
+}  // namespace jamflow

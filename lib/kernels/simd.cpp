@@ -1,0 +1,658 @@
+// The simd backend: one pair loop, written once with Google Highway and compiled for every
+// x86-64 target Highway knows (AVX-512, AVX2, SSE4, ...); the best target this CPU runs is
+// picked at run time (HWY_DYNAMIC_DISPATCH), so one binary runs anywhere.
+//
+// The pass. Each thread lays out its particles as 32-byte rows (x, y, z, a_i) in real space
+// (one load per particle per pair), then walks its share of the inner list as flat pairs,
+// four at a time: the rows of the four i, the four j and the four image shifts are loaded and
+// transposed to coordinate vectors, the pair law (lib/potential.hpp, the same template the
+// other backends use) runs on them, and the four pair forces are transposed back and added to
+// force rows of the same shape. A force on a partner in another thread's range is deferred and
+// added by its owner after the pair loops, in thread order, as in the portable backend; so a
+// given thread count always gives the same bits. Targets narrower than 256 bits run the same
+// loop one pair at a time.
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "lib/error.hpp"
+#include "lib/kernels/backend.hpp"
+#include "lib/kernels/passes.hpp"
+#include "lib/kernels/simd.hpp"
+#include "lib/potential.hpp"
+
+// One pair loop: the pairs [k0, k1) of the thread that owns the particles [lo, hi).
+namespace jamflow::kernels::simd_detail {
+#ifndef JAMFLOW_SIMD_DETAIL_ONCE
+#define JAMFLOW_SIMD_DETAIL_ONCE
+struct PairLoop {
+  const double* pos;    // rows (x, y, z, a_i), 4 doubles per particle, 32-byte aligned
+  double* frc;          // force rows, same layout
+  const double* shift;  // real-space image shifts, one row per image code
+  const std::uint32_t* owner;
+  const std::uint32_t* entries;
+  std::size_t k0, k1;
+  std::uint32_t lo, hi;  // partners outside go to `deferred` (unless single)
+  std::uint32_t idle;    // a row of this thread's at the origin with radius 0 (padding lanes)
+  bool single;           // one thread: every partner is this thread's
+  double alpha;
+  DeferredForce* deferred;
+  // Results.
+  std::size_t deferred_count;
+  double energy, virial[6];  // xx yy zz xy xz yz
+  std::size_t contacts;
+};
+// A thread's rows: particles [lo, hi) of n, laid out in the cell h (xx, xy, yy, zz).
+struct Rows {
+  const double* s;    // scaled SoA positions
+  const double* ref;  // the inner list's reference positions (same layout)
+  const double* diameter;
+  std::size_t n, lo, hi;
+  double hxx, hxy, hyy, hzz;
+  double* pos;
+  double* frc;
+};
+#endif
+}  // namespace jamflow::kernels::simd_detail
+
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "lib/kernels/simd.cpp"
+// clang-format off
+#include <hwy/foreach_target.h>  // must come before highway.h: re-includes this file per target
+#include <hwy/highway.h>
+#include <hwy/contrib/math/math-inl.h>
+#include <hwy/aligned_allocator.h>
+// clang-format on
+
+HWY_BEFORE_NAMESPACE();
+namespace jamflow::kernels::HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+using simd_detail::PairLoop;
+
+// The pair laws, compiled for this target (see lib/pair_laws.inl).
+#include "lib/pair_laws.inl"
+
+// The law of an evaluator from lib/potential.hpp, on this target's arithmetic.
+template <class Math, class V>
+HWY_INLINE V Law(const HarmonicPair&, const Math& m, V r2, V a, V& f_over_r) {
+  return HarmonicLaw::eval(m, r2, a, f_over_r);
+}
+template <class Math, class V>
+HWY_INLINE V Law(const PowerPair& pair, const Math& m, V r2, V a, V& f_over_r) {
+  return PowerLaw::eval(m, r2, a, f_over_r, pair.alpha_r);
+}
+
+const char* TargetName() {
+  return hwy::TargetName(HWY_TARGET);
+}
+
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX2
+constexpr bool kVector = true;
+using D = hn::Full256<double>;
+using V = hn::Vec<D>;
+
+// The arithmetic of lib/potential.hpp's laws on vectors of four pairs.
+struct VecMath {
+  D d;
+  V splat(double c) const { return hn::Set(d, c); }
+  // 1 / sqrt(x) to round-off: the single-precision estimate (12 bits or better) and three Newton
+  // steps (each squares the relative error: 4e-4, 2e-7, 6e-14, then round-off). Kept off the
+  // divider, which the division by a_ij already occupies. x below 1e-30 (two centres closer
+  // than 1e-15) is taken as 1e-30.
+  V rsqrt(V x) const {
+    const hn::Rebind<float, D> df;
+    V y = hn::PromoteTo(
+        d, hn::ApproximateReciprocalSqrt(hn::DemoteTo(df, hn::Max(x, hn::Set(d, 1e-30)))));
+    const V h = hn::Mul(hn::Set(d, 0.5), x), three_halves = hn::Set(d, 1.5);
+    for (int k = 0; k < 3; ++k)
+      y = hn::Mul(y, hn::NegMulAdd(h, hn::Mul(y, y), three_halves));
+    return y;
+  }
+  // x^p for x in (0, 1]: exact shortcuts for the exponents the studies use (alpha_r = 1.5, 2.5,
+  // 3), exp(p log x) otherwise.
+  V pow(V x, double p) const {
+    if (p == 0.5)
+      return hn::Sqrt(x);
+    if (p == 1.5)
+      return hn::Mul(x, hn::Sqrt(x));
+    if (p == 2.0)
+      return hn::Mul(x, x);
+    return hn::Exp(d, hn::Mul(hn::Log(d, x), hn::Set(d, p)));
+  }
+};
+
+// Rows q0..q3 (four lanes each) to columns x, y, z, w.
+HWY_INLINE void Transpose(D d, V q0, V q1, V q2, V q3, V& x, V& y, V& z, V& w) {
+  const V t0 = hn::InterleaveLower(d, q0, q1);  // x0 x1 | z0 z1
+  const V t1 = hn::InterleaveUpper(d, q0, q1);  // y0 y1 | w0 w1
+  const V t2 = hn::InterleaveLower(d, q2, q3);
+  const V t3 = hn::InterleaveUpper(d, q2, q3);
+  x = hn::ConcatLowerLower(d, t2, t0);
+  y = hn::ConcatLowerLower(d, t3, t1);
+  z = hn::ConcatUpperUpper(d, t2, t0);
+  w = hn::ConcatUpperUpper(d, t3, t1);
+}
+
+HWY_INLINE double LaneSum(D d, V v) {
+  return hn::GetLane(hn::SumOfLanes(d, v));
+}
+
+// Four pairs: their rows d_l = (r_ij, a_i + a_j) = (row_i + h n) - row_j * (1, 1, 1, -1), as
+// four lanes each, and their owners' and partners' row offsets (in doubles).
+struct Chunk {
+  V d[4];
+  std::size_t io[4], jo[4];
+};
+
+// The chunk of the pairs given by their owners and entries; j's entry is j << 5 | code, and a row
+// is four doubles, so (entry >> 5) << 2 is the partner's row offset.
+HWY_INLINE void LoadChunk(D d, const double* pos, const double* shift, V sign,
+                          const std::uint32_t* own, const std::uint32_t* ent, Chunk& c) {
+  for (int l = 0; l < 4; ++l) {
+    const std::uint32_t e = ent[l];
+    c.io[l] = std::size_t(own[l]) << 2;
+    c.jo[l] = std::size_t(e >> NeighbourList::kCodeBits) << 2;
+    const V qi = hn::Add(hn::Load(d, pos + c.io[l]),
+                         hn::Load(d, shift + (std::size_t(e & NeighbourList::kCodeMask) << 2)));
+    c.d[l] = hn::NegMulAdd(hn::Load(d, pos + c.jo[l]), sign, qi);
+  }
+}
+
+struct Sums {
+  V u, wxx, wyy, wzz, wxy, wxz, wyz;
+  std::size_t contacts = 0;
+};
+
+// The pair law on a chunk, and its pair forces added to the rows of both particles (or, for a
+// partner outside [lo, hi), deferred). `Single`: one thread, every partner is its own.
+template <bool Single, class Pair>
+HWY_INLINE void EvaluateChunk(D d, const Pair& pair, const Chunk& c, double* frc,
+                              std::size_t lo_off, std::size_t hi_off, DeferredForce* deferred,
+                              std::size_t& nd, Sums& s) {
+  const VecMath m{d};
+  V rx, ry, rz, a;
+  Transpose(d, c.d[0], c.d[1], c.d[2], c.d[3], rx, ry, rz, a);
+  const V r2 = hn::MulAdd(rz, rz, hn::MulAdd(ry, ry, hn::Mul(rx, rx)));
+  const auto touch = hn::Lt(r2, hn::Mul(a, a));
+  s.contacts += hn::CountTrue(d, touch);
+  // Lanes that do not touch compute nonsense (even NaN) that the mask drops.
+  V f_over_r;
+  const V e = Law(pair, m, r2, a, f_over_r);
+  f_over_r = hn::IfThenElseZero(touch, f_over_r);
+  s.u = hn::Add(s.u, hn::IfThenElseZero(touch, e));
+  const V gx = hn::Mul(f_over_r, rx), gy = hn::Mul(f_over_r, ry), gz = hn::Mul(f_over_r, rz);
+  s.wxx = hn::MulAdd(rx, gx, s.wxx);
+  s.wyy = hn::MulAdd(ry, gy, s.wyy);
+  s.wzz = hn::MulAdd(rz, gz, s.wzz);
+  s.wxy = hn::MulAdd(rx, gy, s.wxy);
+  s.wxz = hn::MulAdd(rx, gz, s.wxz);
+  s.wyz = hn::MulAdd(ry, gz, s.wyz);
+  // Pair force rows: f/r times the pair's row. The fourth lane (f/r times a_ij) is never read.
+  alignas(32) double fr[4];
+  hn::Store(f_over_r, d, fr);
+  for (int l = 0; l < 4; ++l) {
+    const V g = hn::Mul(hn::Set(d, fr[l]), c.d[l]);
+    double* fi = frc + c.io[l];
+    hn::Store(hn::Add(hn::Load(d, fi), g), d, fi);
+    if (Single || (c.jo[l] >= lo_off && c.jo[l] < hi_off)) {
+      double* fj = frc + c.jo[l];
+      hn::Store(hn::Sub(hn::Load(d, fj), g), d, fj);
+    } else {
+      alignas(32) double t[4];
+      hn::Store(g, d, t);
+      deferred[nd++] = {std::uint32_t(c.jo[l] >> 2), -t[0], -t[1], -t[2]};
+    }
+  }
+}
+
+template <bool Single, class Pair>
+HWY_INLINE void LoopOf(const Pair& pair, PairLoop& p) {
+  const D d;
+  alignas(32) static constexpr double kSign[4] = {1.0, 1.0, 1.0, -1.0};
+  const V zero = hn::Zero(d), sign = hn::Load(d, kSign);
+  Sums s{zero, zero, zero, zero, zero, zero, zero, 0};
+  std::size_t nd = 0;
+  const double* pos = p.pos;
+  const double* shift = p.shift;
+  double* frc = p.frc;
+  DeferredForce* deferred = p.deferred;
+  const std::uint32_t* owner = p.owner;
+  const std::uint32_t* entries = p.entries;
+  const std::size_t lo_off = std::size_t(p.lo) << 2, hi_off = std::size_t(p.hi) << 2;
+  const std::size_t k0 = p.k0, k1 = p.k1, full = k0 + (k1 - k0) / 4 * 4;
+  // Full chunks, the next one's rows loaded while the current one is evaluated.
+  if (k0 < full) {
+    Chunk a, b;
+    LoadChunk(d, pos, shift, sign, owner + k0, entries + k0, a);
+    std::size_t k = k0 + 4;
+    for (; k + 4 < full; k += 8) {
+      LoadChunk(d, pos, shift, sign, owner + k, entries + k, b);
+      EvaluateChunk<Single>(d, pair, a, frc, lo_off, hi_off, deferred, nd, s);
+      LoadChunk(d, pos, shift, sign, owner + k + 4, entries + k + 4, a);
+      EvaluateChunk<Single>(d, pair, b, frc, lo_off, hi_off, deferred, nd, s);
+    }
+    if (k < full) {
+      LoadChunk(d, pos, shift, sign, owner + k, entries + k, b);
+      EvaluateChunk<Single>(d, pair, a, frc, lo_off, hi_off, deferred, nd, s);
+      EvaluateChunk<Single>(d, pair, b, frc, lo_off, hi_off, deferred, nd, s);
+    } else {
+      EvaluateChunk<Single>(d, pair, a, frc, lo_off, hi_off, deferred, nd, s);
+    }
+  }
+  if (full < k1) {  // the last, partial chunk: padding pairs are (idle, idle) with no shift
+    std::uint32_t own[4], ent[4];
+    for (std::size_t l = 0; l < 4; ++l) {
+      const bool real = full + l < k1;
+      own[l] = real ? owner[full + l] : p.idle;
+      ent[l] = real ? entries[full + l] : (p.idle << NeighbourList::kCodeBits) | 13u;
+    }
+    Chunk c;
+    LoadChunk(d, pos, shift, sign, own, ent, c);
+    // Padding forces are zero; with several threads they are deferred to the idle row, which
+    // lies beyond every particle and so is never added.
+    EvaluateChunk<Single>(d, pair, c, frc, lo_off, hi_off, deferred, nd, s);
+  }
+  p.energy = LaneSum(d, s.u);
+  const V w[6] = {s.wxx, s.wyy, s.wzz, s.wxy, s.wxz, s.wyz};
+  for (int c = 0; c < 6; ++c)
+    p.virial[c] = LaneSum(d, w[c]);
+  p.contacts = s.contacts;
+  p.deferred_count = nd;
+}
+
+template <class Pair>
+HWY_INLINE void Loop(const Pair& pair, PairLoop& p) {
+  if (p.single)
+    LoopOf<true>(pair, p);
+  else
+    LoopOf<false>(pair, p);
+}
+
+// The rows of particles [lo, hi): (h s, a) from the scaled SoA positions s, four particles per
+// transpose, with their force rows zeroed; in the same pass, the largest squared real-space
+// displacement since `ref` (NaN if a position is not finite), as
+// NeighbourList::max_displacement2 measures it.
+double LayOut(const simd_detail::Rows& a) {
+  const D d;
+  const V vxx = hn::Set(d, a.hxx), vxy = hn::Set(d, a.hxy), vyy = hn::Set(d, a.hyy),
+          vzz = hn::Set(d, a.hzz), half = hn::Set(d, 0.5), zero = hn::Zero(d);
+  const std::size_t n = a.n;
+  const double* s = a.s;
+  const double* ref = a.ref;
+  V m = zero, sum = zero;
+  std::size_t i = a.lo;
+  for (; i + 4 <= a.hi; i += 4) {
+    const V x = hn::LoadU(d, s + i), y = hn::LoadU(d, s + n + i), z = hn::LoadU(d, s + 2 * n + i);
+    V r[4];
+    Transpose(d, hn::MulAdd(vxy, y, hn::Mul(vxx, x)), hn::Mul(vyy, y), hn::Mul(vzz, z),
+              hn::Mul(half, hn::LoadU(d, a.diameter + i)), r[0], r[1], r[2], r[3]);
+    for (std::size_t k = 0; k < 4; ++k) {
+      hn::Store(r[k], d, a.pos + 4 * (i + k));
+      hn::Store(zero, d, a.frc + 4 * (i + k));
+    }
+    const V ux = hn::Sub(x, hn::LoadU(d, ref + i)), uy = hn::Sub(y, hn::LoadU(d, ref + n + i)),
+            uz = hn::Sub(z, hn::LoadU(d, ref + 2 * n + i));
+    const V rx = hn::MulAdd(vxy, uy, hn::Mul(vxx, ux)), ry = hn::Mul(vyy, uy),
+            rz = hn::Mul(vzz, uz);
+    const V d2 = hn::MulAdd(rz, rz, hn::MulAdd(ry, ry, hn::Mul(rx, rx)));
+    m = hn::Max(m, d2);  // a NaN never wins the max, but it poisons the sum
+    sum = hn::Add(sum, d2);
+  }
+  double mx = hn::GetLane(hn::MaxOfLanes(d, m)), total = LaneSum(d, sum);
+  for (; i < a.hi; ++i) {
+    const double x = s[i], y = s[n + i], z = s[2 * n + i];
+    double* r = a.pos + 4 * i;
+    r[0] = a.hxx * x + a.hxy * y;
+    r[1] = a.hyy * y;
+    r[2] = a.hzz * z;
+    r[3] = 0.5 * a.diameter[i];
+    std::fill(a.frc + 4 * i, a.frc + 4 * i + 4, 0.0);
+    const double ux = x - ref[i], uy = y - ref[n + i], uz = z - ref[2 * n + i];
+    const double rx = a.hxx * ux + a.hxy * uy, ry = a.hyy * uy, rz = a.hzz * uz;
+    const double d2 = rx * rx + ry * ry + rz * rz;
+    mx = d2 > mx ? d2 : mx;
+    total += d2;
+  }
+  return std::isfinite(total) ? mx : std::nan("");
+}
+
+// The final force rows of particles [lo, hi) into the SoA result f (n per component); returns
+// sum |F|^2 over them.
+double CopyOut(const double* frc, double* f, std::size_t n, std::size_t lo, std::size_t hi) {
+  const D d;
+  V acc = hn::Zero(d);
+  std::size_t i = lo;
+  for (; i + 4 <= hi; i += 4) {
+    V x, y, z, w;
+    Transpose(d, hn::Load(d, frc + 4 * i), hn::Load(d, frc + 4 * i + 4),
+              hn::Load(d, frc + 4 * i + 8), hn::Load(d, frc + 4 * i + 12), x, y, z, w);
+    hn::StoreU(x, d, f + i);
+    hn::StoreU(y, d, f + n + i);
+    hn::StoreU(z, d, f + 2 * n + i);
+    acc = hn::MulAdd(z, z, hn::MulAdd(y, y, hn::MulAdd(x, x, acc)));
+  }
+  double rest = 0.0;
+  for (; i < hi; ++i) {
+    for (int c = 0; c < 3; ++c) {
+      f[c * n + i] = frc[4 * i + c];
+      rest += frc[4 * i + c] * frc[4 * i + c];
+    }
+  }
+  return LaneSum(d, acc) + rest;
+}
+#else
+constexpr bool kVector = false;
+
+// Narrower targets: the same loop, one pair at a time.
+template <class Pair>
+HWY_INLINE void Loop(const Pair& pair, PairLoop& p) {
+  double u = 0.0, w[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+  std::size_t contacts = 0, nd = 0;
+  for (std::size_t k = p.k0; k < p.k1; ++k) {
+    const std::uint32_t e = p.entries[k];
+    const std::size_t i = p.owner[k], j = e >> NeighbourList::kCodeBits;
+    const double* ri = p.pos + 4 * i;
+    const double* rj = p.pos + 4 * j;
+    const double* sh = p.shift + 4 * (e & NeighbourList::kCodeMask);
+    const double dx = ri[0] - rj[0] + sh[0], dy = ri[1] - rj[1] + sh[1], dz = ri[2] - rj[2] + sh[2],
+                 a = ri[3] + rj[3];
+    const double r2 = dx * dx + dy * dy + dz * dz;
+    if (!(r2 < a * a))
+      continue;
+    double f_over_r;
+    u += Law(pair, ScalarMath{}, r2, a, f_over_r);
+    const double g[3] = {f_over_r * dx, f_over_r * dy, f_over_r * dz};
+    w[0] += dx * g[0];
+    w[1] += dy * g[1];
+    w[2] += dz * g[2];
+    w[3] += dx * g[1];
+    w[4] += dx * g[2];
+    w[5] += dy * g[2];
+    ++contacts;
+    for (int c = 0; c < 3; ++c)
+      p.frc[4 * i + c] += g[c];
+    if (p.single || (j >= p.lo && j < p.hi)) {
+      for (int c = 0; c < 3; ++c)
+        p.frc[4 * j + c] -= g[c];
+    } else {
+      p.deferred[nd++] = {std::uint32_t(j), -g[0], -g[1], -g[2]};
+    }
+  }
+  p.energy = u;
+  std::copy(w, w + 6, p.virial);
+  p.contacts = contacts;
+  p.deferred_count = nd;
+}
+
+double LayOut(const simd_detail::Rows& a) {
+  const std::size_t n = a.n;
+  double mx = 0.0, total = 0.0;
+  for (std::size_t i = a.lo; i < a.hi; ++i) {
+    const double x = a.s[i], y = a.s[n + i], z = a.s[2 * n + i];
+    double* r = a.pos + 4 * i;
+    r[0] = a.hxx * x + a.hxy * y;
+    r[1] = a.hyy * y;
+    r[2] = a.hzz * z;
+    r[3] = 0.5 * a.diameter[i];
+    std::fill(a.frc + 4 * i, a.frc + 4 * i + 4, 0.0);
+    const double ux = x - a.ref[i], uy = y - a.ref[n + i], uz = z - a.ref[2 * n + i];
+    const double rx = a.hxx * ux + a.hxy * uy, ry = a.hyy * uy, rz = a.hzz * uz;
+    const double d2 = rx * rx + ry * ry + rz * rz;
+    mx = d2 > mx ? d2 : mx;
+    total += d2;
+  }
+  return std::isfinite(total) ? mx : std::nan("");
+}
+
+double CopyOut(const double* frc, double* f, std::size_t n, std::size_t lo, std::size_t hi) {
+  double f2 = 0.0;
+  for (std::size_t i = lo; i < hi; ++i) {
+    for (int c = 0; c < 3; ++c) {
+      f[c * n + i] = frc[4 * i + c];
+      f2 += frc[4 * i + c] * frc[4 * i + c];
+    }
+  }
+  return f2;
+}
+#endif
+
+bool VectorLoop() {
+  return kVector;
+}
+
+void Pairs(PairLoop& p) {
+  with_pair_law(p.alpha, [&](const auto& pair) { Loop(pair, p); });
+}
+
+}  // namespace jamflow::kernels::HWY_NAMESPACE
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace jamflow::kernels {
+
+HWY_EXPORT(TargetName);
+HWY_EXPORT(VectorLoop);
+HWY_EXPORT(Pairs);
+HWY_EXPORT(LayOut);
+HWY_EXPORT(CopyOut);
+
+namespace {
+
+// The targets compiled into HWY_EXPORT's table, best first.
+std::vector<std::int64_t> compiled_targets() {
+  std::vector<std::int64_t> out;
+  for (std::int64_t t = HWY_TARGETS; t != 0; t &= t - 1)
+    out.push_back(t & -t);
+  return out;
+}
+
+SimdTarget describe(std::int64_t bits) {
+  return {bits, hwy::TargetName(bits), (hwy::SupportedTargets() & bits) != 0, false};
+}
+
+std::int64_t pinned = 0;  // 0: no restriction
+
+void apply_pin() {
+  hwy::SetSupportedTargetsForTest(pinned);
+}
+
+// The environment's pin, applied once.
+void pin_from_environment() {
+  static const bool once = [] {
+    if (const char* name = std::getenv("JAMFLOW_SIMD_TARGET"); name && *name)
+      simd_pin_target(name);
+    return true;
+  }();
+  (void)once;
+}
+
+class SimdBackend final : public ForceBackend {
+ public:
+  SimdBackend(double alpha, int threads) : alpha_(alpha), threads_(threads) {}
+  std::string name() const override { return "simd"; }
+  std::string target() const override { return HWY_DYNAMIC_DISPATCH(TargetName)(); }
+  void compute(const State& state, const NeighbourList& list, ForceResult& out) override;
+
+ private:
+  double alpha_;
+  int threads_;
+  hwy::AlignedFreeUniquePtr<double[]> rows_;  // position rows, then force rows
+  std::size_t rows_size_ = 0;
+  std::vector<std::vector<DeferredForce>> deferred_;
+  std::vector<std::size_t> deferred_count_;
+};
+
+void SimdBackend::compute(const State& state, const NeighbourList& list, ForceResult& out) {
+  const std::size_t n = state.size();
+  out.force.resize(3 * n);
+  const int nt = threads_;
+  const std::size_t rows = n + std::size_t(nt);  // particles, then one idle row per thread
+  if (rows_size_ < 8 * rows) {
+    rows_ = hwy::AllocateAligned<double>(8 * rows);
+    rows_size_ = 8 * rows;
+  }
+  double* pos = rows_.get();
+  double* frc = pos + 4 * rows;
+  deferred_.resize(std::max<std::size_t>(deferred_.size(), nt));
+  deferred_count_.assign(nt, 0);
+
+  const Eigen::Matrix3d h = state.box.h();
+  const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
+  alignas(64) double shift[27 * 4];
+  for (int c = 0; c < 27; ++c) {
+    const auto& sh = NeighbourList::shifts()[c];
+    shift[4 * c] = hxx * sh[0] + hxy * sh[1];
+    shift[4 * c + 1] = hyy * sh[1];
+    shift[4 * c + 2] = hzz * sh[2];
+    shift[4 * c + 3] = 0.0;
+  }
+  const std::uint32_t* start = list.inner_start().data();
+  ThreadSums sums(nt);
+  const bool have_ref = list.inner_reference().size() == state.pos.size();
+  const double* ref = list.inner_reference().data();
+  double* fx = out.force.data();
+  const auto pairs = HWY_DYNAMIC_DISPATCH(Pairs);
+  const auto lay_out = HWY_DYNAMIC_DISPATCH(LayOut);
+  const auto copy_out = HWY_DYNAMIC_DISPATCH(CopyOut);
+
+#pragma omp parallel num_threads(nt) if (nt > 1)
+  {
+    const int tid = omp_get_thread_num();
+    const int nthr = omp_get_num_threads();
+    const auto [lo, hi] = thread_range(start, n, tid, nthr);
+    // Without a reference the displacement is not used (finish() reports it as infinite).
+    const simd_detail::Rows rows_of{state.pos.data(),
+                                    have_ref ? ref : state.pos.data(),
+                                    state.diameter.data(),
+                                    n,
+                                    lo,
+                                    hi,
+                                    hxx,
+                                    hxy,
+                                    hyy,
+                                    hzz,
+                                    pos,
+                                    frc};
+    sums.drift2[tid] = lay_out(rows_of);
+    const std::size_t idle = n + std::size_t(tid);
+    std::fill(pos + 4 * idle, pos + 4 * idle + 4, 0.0);
+    std::fill(frc + 4 * idle, frc + 4 * idle + 4, 0.0);
+    std::vector<DeferredForce>& deferred = deferred_[tid];
+    if (nthr > 1) {
+      // At most one per pair, and three padding pairs.
+      deferred.resize(std::max<std::size_t>(deferred.size(), start[hi] - start[lo] + 4));
+      // Every row is written before any thread reads its partners'.
+#pragma omp barrier
+    }
+    simd_detail::PairLoop p{};
+    p.pos = pos;
+    p.frc = frc;
+    p.shift = shift;
+    p.owner = list.inner_owner().data();
+    p.entries = list.inner_entries().data();
+    p.k0 = start[lo];
+    p.k1 = start[hi];
+    p.lo = std::uint32_t(lo);
+    p.hi = std::uint32_t(hi);
+    p.idle = std::uint32_t(idle);
+    p.single = nthr == 1;
+    p.alpha = alpha_;
+    p.deferred = deferred.data();
+    pairs(p);
+    sums.energy[tid] = p.energy;
+    sums.virial[tid] << p.virial[0], p.virial[1], p.virial[2], p.virial[3], p.virial[4],
+        p.virial[5];
+    sums.contacts[tid] = p.contacts;
+    deferred_count_[tid] = p.deferred_count;
+    if (nthr > 1) {
+#pragma omp barrier
+      // The forces other threads deferred to this range, in thread order.
+      for (int u = 0; u < nthr; ++u) {
+        const DeferredForce* df = deferred_[u].data();
+        for (std::size_t q = 0; q < deferred_count_[u]; ++q) {
+          if (df[q].j >= lo && df[q].j < hi) {
+            double* row = frc + 4 * std::size_t(df[q].j);
+            row[0] += df[q].fx;
+            row[1] += df[q].fy;
+            row[2] += df[q].fz;
+          }
+        }
+      }
+    }
+    sums.squared[tid] = copy_out(frc, fx, n, lo, hi);
+  }
+  sums.finish(out, have_ref);
+}
+
+}  // namespace
+
+std::vector<SimdTarget> simd_targets() {
+  // What the CPU supports, with no pin in the way; then each supported target is asked itself
+  // whether it runs the vector loop.
+  hwy::SetSupportedTargetsForTest(0);
+  std::vector<SimdTarget> out;
+  for (const std::int64_t bits : compiled_targets())
+    out.push_back(describe(bits));
+  for (SimdTarget& t : out) {
+    if (t.supported) {
+      hwy::SetSupportedTargetsForTest(t.bits);
+      t.vector = HWY_DYNAMIC_DISPATCH(VectorLoop)();
+    } else {
+      // Not runnable here; the vector loop is compiled for x86 targets of 256 bits and more.
+      t.vector = (t.bits & (HWY_AVX2 | HWY_AVX3 | HWY_AVX3_DL)) != 0;
+    }
+  }
+  apply_pin();
+  return out;
+}
+
+SimdTarget simd_current_target() {
+  pin_from_environment();
+  for (const SimdTarget& t : simd_targets()) {
+    if (t.name == HWY_DYNAMIC_DISPATCH(TargetName)())
+      return t;
+  }
+  return {0, HWY_DYNAMIC_DISPATCH(TargetName)(), true, HWY_DYNAMIC_DISPATCH(VectorLoop)()};
+}
+
+void simd_pin_target(const std::string& name) {
+  if (name.empty()) {
+    pinned = 0;
+    apply_pin();
+    return;
+  }
+  pinned = 0;  // describe() sees every target the CPU supports
+  apply_pin();
+  std::string names;
+  for (const std::int64_t bits : compiled_targets()) {
+    const SimdTarget t = describe(bits);
+    names += (names.empty() ? "" : ", ") + t.name + (t.supported ? "" : " (not on this CPU)");
+  }
+  for (const std::int64_t bits : compiled_targets()) {
+    const SimdTarget t = describe(bits);
+    if (t.name == name) {
+      if (!t.supported)
+        throw ConfigError("JAMFLOW_SIMD_TARGET = \"" + name + "\": this CPU cannot run it; " +
+                          "allowed: " + names);
+      pinned = bits;
+      apply_pin();
+      return;
+    }
+  }
+  throw ConfigError("JAMFLOW_SIMD_TARGET = \"" + name +
+                    "\" is not a compiled target; allowed: " + names);
+}
+
+std::unique_ptr<ForceBackend> make_simd_backend(double alpha, int threads) {
+  pin_from_environment();
+  return std::make_unique<SimdBackend>(alpha, threads);
+}
+
+}  // namespace jamflow::kernels
+#endif  // HWY_ONCE
