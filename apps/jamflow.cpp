@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "analysis/analyze_cli.hpp"
-#include "apps/run.hpp"
+#include "driver/run.hpp"
 #include "lib/error.hpp"
 #include "studies/study.hpp"
 

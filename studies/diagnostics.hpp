@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "apps/run.hpp"
+#include "driver/run.hpp"
 #include "studies/study.hpp"
 
 namespace jamflow {

@@ -15,7 +15,7 @@
 #include <sstream>
 #include <thread>
 
-#include "apps/run.hpp"
+#include "driver/run.hpp"
 #include "ensembles/constant_volume.hpp"
 #include "integrators/euler.hpp"
 #include "lib/error.hpp"

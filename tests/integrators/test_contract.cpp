@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "apps/run.hpp"
+#include "driver/run.hpp"
 #include "ensembles/constant_pressure.hpp"
 #include "ensembles/constant_volume.hpp"
 #include "integrators/euler.hpp"

@@ -1,5 +1,5 @@
 // The run driver: scene -> state -> time loop with sampling -> summary -> HDF5 + XYZ.
-#include "apps/run.hpp"
+#include "driver/run.hpp"
 
 #include <chrono>
 #include <cmath>

@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <functional>
 
-#include "apps/run.hpp"
+#include "driver/run.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "lib/xyz.hpp"
