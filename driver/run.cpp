@@ -10,6 +10,7 @@
 #include <limits>
 #include <stdexcept>
 
+#include "integrators/registry.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "lib/init.hpp"
@@ -134,7 +135,7 @@ RunSpec parse_run_spec(const Scene& scene) {
   {
     ConfigSection integ = scene.section("integrator");
     spec.integrator_kind =
-        integ.has("kind") ? integ.choice("kind", {"euler", "respa", "cvode"}) : std::string();
+        integ.has("kind") ? integ.choice("kind", integrator_kinds()) : std::string();
     // Full validation (kind-specific keys) happens in the factory.
     (void)spec.make_integrator();
   }
