@@ -8,7 +8,9 @@
 #include <vector>
 
 #include "analysis/analyze_cli.hpp"
-#include "apps/run.hpp"
+#include "driver/run.hpp"
+#include "ensembles/registry.hpp"
+#include "integrators/registry.hpp"
 #include "lib/error.hpp"
 #include "studies/study.hpp"
 
@@ -71,6 +73,13 @@ void print_usage() {
       "  jamflow --version | --help\n\n"
       "Each command takes --help.\n",
       JAMFLOW_VERSION);
+  // The kinds a scene may name, from the registries.
+  std::printf("\n[integrator] kind:\n");
+  for (const auto& k : jamflow::registered_integrators())
+    std::printf("  %-18s %s\n", k.kind.c_str(), k.description.c_str());
+  std::printf("[ensemble] kind:\n");
+  for (const auto& k : jamflow::registered_ensembles())
+    std::printf("  %-18s %s\n", k.kind.c_str(), k.description.c_str());
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // Kolb–Dünweg piston (SPEC §2).
 #include "ensembles/constant_pressure.hpp"
 
+#include "ensembles/registry.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 
@@ -25,5 +26,10 @@ std::unique_ptr<Ensemble> make_constant_pressure(ConfigSection& section, double 
   const double xi_v = section.number("xi_V", 1e-4, Range::positive());
   return std::make_unique<ConstantPressure>(shear_rate, p, xi_v);
 }
+
+namespace {
+const EnsembleRegistrar registrar{"constant_pressure", make_constant_pressure,
+                                  "NPgdot: Kolb-Duenweg piston (pressure, xi_V)"};
+}  // namespace
 
 }  // namespace jamflow

@@ -1,5 +1,7 @@
 // Constant volume under steady shear (NVgdot): V fixed, phi given, P_hat measured (SPEC §2).
 #pragma once
+#include <memory>
+
 #include "ensembles/ensemble.hpp"
 
 namespace jamflow {
@@ -9,5 +11,8 @@ class ConstantVolume final : public Ensemble {
   explicit ConstantVolume(double shear_rate) : Ensemble(shear_rate) {}
   std::string name() const override { return "constant_volume"; }
 };
+
+// Reads no keys.
+std::unique_ptr<Ensemble> make_constant_volume(ConfigSection& section, double shear_rate);
 
 }  // namespace jamflow

@@ -44,7 +44,7 @@ class Ensemble {
 };
 
 // Builds the ensemble named by [ensemble] kind, reading only that kind's keys.
-// Registered kinds: "constant_volume" (and those added by other translation units).
+// The kinds are those registered (ensembles/registry.hpp).
 std::unique_ptr<Ensemble> make_ensemble(ConfigSection& section, double shear_rate);
 
 }  // namespace jamflow

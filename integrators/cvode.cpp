@@ -1,6 +1,7 @@
 // CVODE integrator (SUNDIALS 6.4) and the ODE system it integrates; equations, Jacobian and
 // tolerances are documented in cvode.hpp.
 #include "integrators/cvode.hpp"
+#include "integrators/registry.hpp"
 
 #include <cvode/cvode.h>
 #include <cvode/cvode_ls.h>
@@ -1062,5 +1063,10 @@ std::unique_ptr<Integrator> make_cvode(ConfigSection& section) {
       section.integer("max_steps", o.max_steps, 1, std::numeric_limits<std::int32_t>::max()));
   return std::make_unique<Cvode>(o);
 }
+
+namespace {
+const IntegratorRegistrar registrar{"cvode", make_cvode,
+                                    "SUNDIALS CVODE BDF/Adams, adaptive (rtol, atol, method, ...)"};
+}  // namespace
 
 }  // namespace jamflow

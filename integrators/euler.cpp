@@ -1,6 +1,7 @@
 // Explicit Euler.
 #include "integrators/euler.hpp"
 
+#include "integrators/registry.hpp"
 #include "lib/error.hpp"
 
 namespace jamflow {
@@ -34,5 +35,13 @@ void Euler::advance(Model& model, const Ensemble& ensemble, double t_end) {
 std::vector<std::pair<std::string, double>> Euler::statistics() const {
   return {{"steps", double(steps_)}};
 }
+
+std::unique_ptr<Integrator> make_euler(ConfigSection& section) {
+  return std::make_unique<Euler>(section.number("dt", Range::positive()));
+}
+
+namespace {
+const IntegratorRegistrar registrar{"euler", make_euler, "explicit Euler, first order (dt)"};
+}  // namespace
 
 }  // namespace jamflow

@@ -1,10 +1,9 @@
-// Integrator factory and shared building blocks.
+// Shared building blocks of the integrators (the factory is in registry.cpp).
 #include "integrators/integrator.hpp"
 
 #include <cmath>
 
-#include "integrators/euler.hpp"
-#include "lib/error.hpp"
+#include "lib/model.hpp"
 
 namespace jamflow {
 
@@ -26,24 +25,6 @@ void drift_particles(State& state, const std::vector<double>& force, double dt, 
 #pragma omp parallel for simd schedule(static) num_threads(threads) if (threads > 1)
   for (std::size_t i = 0; i < n; ++i)
     drift.apply(x[i], y[i], z[i], fx[i], fy[i], fz[i]);
-}
-
-std::unique_ptr<Integrator> make_euler(ConfigSection& section) {
-  return std::make_unique<Euler>(section.number("dt", Range::positive()));
-}
-
-std::unique_ptr<Integrator> make_integrator(ConfigSection& section) {
-  const std::string kind = section.choice("kind", {"euler", "respa", "cvode"});
-  std::unique_ptr<Integrator> integ;
-  if (kind == "euler") {
-    integ = make_euler(section);
-  } else if (kind == "respa") {
-    integ = make_respa(section);
-  } else {
-    integ = make_cvode(section);
-  }
-  section.finish();
-  return integ;
 }
 
 }  // namespace jamflow

@@ -36,10 +36,12 @@ class Integrator {
   virtual double nominal_dt() const { return 0.0; }
 };
 
-// Builds the integrator named by [integrator] kind, reading only that kind's keys.
+// Builds the integrator named by [integrator] kind (a registered kind, integrators/registry.hpp),
+// reading only that kind's keys.
 std::unique_ptr<Integrator> make_integrator(ConfigSection& section);
 
-// Per-kind factories (each reads its own keys; `kind` has been read already).
+// Per-kind factories (each reads its own keys; `kind` has been read already). Each kind
+// registers its factory in the integrator registry (integrators/registry.hpp).
 std::unique_ptr<Integrator> make_euler(ConfigSection& section);
 std::unique_ptr<Integrator> make_respa(ConfigSection& section);
 std::unique_ptr<Integrator> make_cvode(ConfigSection& section);

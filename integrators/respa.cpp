@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "integrators/registry.hpp"
 #include "lib/error.hpp"
 
 namespace jamflow {
@@ -122,5 +123,10 @@ std::unique_ptr<Integrator> make_respa(ConfigSection& section) {
   o.outer_scheme = parse_scheme(section.choice("outer_scheme", inner_scheme, {"euler", "heun"}));
   return std::make_unique<Respa>(o);
 }
+
+namespace {
+const IntegratorRegistrar registrar{"respa", make_respa,
+                                    "RESPA splitting, order 1 or 2 (dt, n_inner, inner, ...)"};
+}  // namespace
 
 }  // namespace jamflow

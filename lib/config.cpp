@@ -252,6 +252,15 @@ ConfigSection Scene::section(const std::string& name) const {
   return ConfigSection(name, n ? n->as_table() : nullptr);
 }
 
+const toml::table* Scene::table(const std::string& name) const {
+  const toml::node* n = table_.get(name);
+  return n ? n->as_table() : nullptr;
+}
+
+void Scene::set_section(const std::string& name, toml::table table) {
+  table_.insert_or_assign(name, std::move(table));
+}
+
 std::string Scene::text() const {
   std::ostringstream os;
   os << table_ << "\n";

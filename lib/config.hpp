@@ -70,6 +70,10 @@ class Scene {
   void check_sections(const std::vector<std::string>& allowed) const;
   ConfigSection section(const std::string& name) const;
   bool has_section(const std::string& name) const;
+  // The section as a table (nullptr if absent or not a table), and replacing it whole with
+  // typed values (no text round trip: doubles stay exact).
+  const toml::table* table(const std::string& name) const;
+  void set_section(const std::string& name, toml::table table);
 
   std::string text() const;  // canonical TOML after overrides: what goes into outputs
   const std::string& source() const { return source_; }

@@ -26,6 +26,14 @@ RunSpec spec_from_toml(const std::string& toml, const std::vector<std::string>& 
   return parse_run_spec(scene);
 }
 
+RunSpec spec_from_toml(const std::string& toml, const IntegratorSettings& integrator,
+                       const std::vector<std::string>& overrides, const std::string& source) {
+  Scene scene = Scene::parse(toml, source);
+  for (const auto& o : overrides)
+    scene.set(o);
+  return parse_run_spec(scene, integrator);
+}
+
 ReplicaResult run_one(const RunSpec& spec, std::uint64_t seed, const std::string& label,
                       const StudyOptions& options) {
   RunOptions o;

@@ -5,13 +5,18 @@
 #include <string>
 #include <vector>
 
-#include "apps/run.hpp"
+#include "driver/run.hpp"
 #include "studies/study.hpp"
 
 namespace jamflow::studies {
 
 // Parses and validates a scene given as TOML text (plus "section.key=value" overrides).
 RunSpec spec_from_toml(const std::string& toml, const std::vector<std::string>& overrides = {},
+                       const std::string& source = "<study scene>");
+// The same for a scene without [integrator] and typed integrator settings, which the run uses
+// exactly as given (no TOML text in between).
+RunSpec spec_from_toml(const std::string& toml, const IntegratorSettings& integrator,
+                       const std::vector<std::string>& overrides = {},
                        const std::string& source = "<study scene>");
 
 // Runs one replica of a spec (progress labelled `label` unless quiet). Never throws for an

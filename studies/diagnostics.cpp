@@ -507,11 +507,9 @@ DiagnosedRun execute(const RunRequest& request, const Thresholds& thresholds) {
   d.label = request.label;
   RunSpec spec;
   try {
-    Scene scene = Scene::parse(request.scene, request.label);
-    for (const auto& o : request.overrides)
-      scene.set(o);
-    scene.set("run.threads=1");
-    spec = parse_run_spec(scene);
+    std::vector<std::string> overrides = request.overrides;
+    overrides.push_back("run.threads=1");
+    spec = request.scene.spec(overrides, request.label);
   } catch (const ConfigError& e) {
     d.unavailable = e.what();
     d.cls.verdict = Verdict::kNotAvailable;
@@ -700,6 +698,21 @@ std::string short_num(double v) {
   return buf;
 }
 
+std::string toml_num(double v) {
+  std::string s = fmt(v);  // shortest round-trip form
+  if (std::isfinite(v) && s.find_first_of(".eE") == std::string::npos)
+    s += ".0";
+  return s;
+}
+
+RunSpec StudyScene::spec(const std::vector<std::string>& overrides,
+                         const std::string& source) const {
+  Scene scene = Scene::parse(toml, source);
+  for (const auto& o : overrides)
+    scene.set(o);
+  return integrator ? parse_run_spec(scene, *integrator) : parse_run_spec(scene);
+}
+
 std::string StatePoint::describe() const {
   std::string s = "N = " + std::to_string(n) + ", alpha = " + short_num(alpha) + ", ";
   s += constant_pressure ? "P = " + short_num(pressure) : "phi = " + short_num(phi);
@@ -714,7 +727,7 @@ IntegratorSetting euler_setting(double dt) {
   s.family = "euler";
   s.label = "euler dt=" + short_num(dt);
   s.dt = dt;
-  s.keys = {{"kind", "\"euler\""}, {"dt", short_num(dt)}};
+  s.settings = IntegratorSettings("euler").set("dt", dt);
   return s;
 }
 
@@ -725,11 +738,11 @@ IntegratorSetting respa_setting(double dt, int n_inner, const std::string& inner
   s.label = "respa " + inner + "x" + std::to_string(n_inner) +
             (scheme == "euler" ? "" : " " + scheme) + " dt=" + short_num(dt);
   s.dt = dt;
-  s.keys = {{"kind", "\"respa\""},
-            {"dt", short_num(dt)},
-            {"n_inner", std::to_string(n_inner)},
-            {"inner", "\"" + inner + "\""},
-            {"inner_scheme", "\"" + scheme + "\""}};
+  s.settings = IntegratorSettings("respa")
+                   .set("dt", dt)
+                   .set("n_inner", n_inner)
+                   .set("inner", inner)
+                   .set("inner_scheme", scheme);
   return s;
 }
 
@@ -738,36 +751,32 @@ IntegratorSetting cvode_setting(double rtol, double atol, long max_steps) {
   s.family = "cvode";
   s.label = "cvode rtol=" + short_num(rtol);
   s.tolerance = rtol;
-  s.keys = {{"kind", "\"cvode\""}, {"rtol", short_num(rtol)}};
+  s.settings = IntegratorSettings("cvode").set("rtol", rtol);
   if (atol > 0.0)
-    s.keys.emplace_back("atol", short_num(atol));
+    s.settings.set("atol", atol);
   if (max_steps > 0)
-    s.keys.emplace_back("max_steps", std::to_string(max_steps));
+    s.settings.set("max_steps", std::int64_t{max_steps});
   return s;
 }
 
-std::string scene_toml(const StatePoint& p, const IntegratorSetting& setting, double t_eq,
-                       double t_av, double sample_every, int blocks) {
+StudyScene scene_toml(const StatePoint& p, const IntegratorSetting& setting, double t_eq,
+                      double t_av, double sample_every, int blocks) {
   const double se = commensurate(sample_every, setting.dt);
   const double av = se * std::max(double(blocks), std::round(t_av / se));
   const double eq = se * std::round(t_eq / se);
-  std::string t = "[system]\nN = " + std::to_string(p.n) + "\nphi = " + short_num(p.phi) +
-                  "\nalpha = " + short_num(p.alpha) + "\nseed = " + std::to_string(p.seed) +
+  std::string t = "[system]\nN = " + std::to_string(p.n) + "\nphi = " + toml_num(p.phi) +
+                  "\nalpha = " + toml_num(p.alpha) + "\nseed = " + std::to_string(p.seed) +
                   "\n\n[ensemble]\n";
   if (p.constant_pressure) {
-    t += "kind = \"constant_pressure\"\npressure = " + short_num(p.pressure) +
-         "\nxi_V = " + short_num(p.xi_v) + "\n";
+    t += "kind = \"constant_pressure\"\npressure = " + toml_num(p.pressure) +
+         "\nxi_V = " + toml_num(p.xi_v) + "\n";
   } else {
     t += "kind = \"constant_volume\"\n";
   }
-  t += "\n[shear]\nrate = " + short_num(p.gdot) + "\n\n[integrator]\n";
-  for (const auto& [k, v] : setting.keys)
-    t += k + " = " + v + "\n";
-  char buf[256];
-  std::snprintf(buf, sizeof buf,
-                "\n[run]\nt_eq = %.17g\nt_av = %.17g\nsample_every = %.17g\nblocks = %d\n", eq, av,
-                se, blocks);
-  return t + buf;
+  t += "\n[shear]\nrate = " + toml_num(p.gdot) + "\n";
+  t += "\n[run]\nt_eq = " + toml_num(eq) + "\nt_av = " + toml_num(av) +
+       "\nsample_every = " + toml_num(se) + "\nblocks = " + std::to_string(blocks) + "\n";
+  return StudyScene(t, setting.settings);
 }
 
 }  // namespace jamflow::studies

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "apps/run.hpp"
+#include "driver/run.hpp"
 #include "studies/study.hpp"
 
 namespace jamflow {
@@ -163,9 +163,25 @@ struct Classification {
 
 // ---- A diagnosed run ------------------------------------------------------------------------
 
+// A study's scene: TOML text for everything but the integrator, and the integrator as typed
+// settings that reach the driver unchanged (parse_run_spec(scene, integrator)). A plain TOML
+// text with its own [integrator] section converts implicitly.
+struct StudyScene {
+  std::string toml;
+  std::optional<IntegratorSettings> integrator;
+  StudyScene() = default;
+  StudyScene(std::string text) : toml(std::move(text)) {}  // NOLINT: implicit on purpose
+  StudyScene(const char* text) : toml(text) {}             // NOLINT
+  StudyScene(std::string text, IntegratorSettings settings)
+      : toml(std::move(text)), integrator(std::move(settings)) {}
+  // Parses the text and applies "section.key=value" overrides, then builds the spec.
+  RunSpec spec(const std::vector<std::string>& overrides = {},
+               const std::string& source = "<study scene>") const;
+};
+
 struct RunRequest {
   std::string label;
-  std::string scene;                   // TOML text
+  StudyScene scene;                    // TOML text (+ typed integrator settings)
   std::vector<std::string> overrides;  // "section.key=value"
   std::uint64_t seed = 1;
   std::optional<State> init;  // start here instead of a random state
@@ -239,13 +255,14 @@ struct StatePoint {
   std::string describe() const;  // "N = 1000, alpha = 2, P = 1e-3, gdot = 1e-4"
 };
 
-// One integrator configuration: its [integrator] keys (TOML values) and a label.
+// One integrator configuration: its typed [integrator] settings and a label. `dt` is the same
+// double as settings' "dt", which the run uses unchanged.
 struct IntegratorSetting {
   std::string family;      // euler | respa | cvode
   std::string label;       // "euler dt=0.5", "respa particles x4 dt=1", "cvode rtol=1e-5"
   double dt = 0.0;         // nominal step (0: adaptive)
   double tolerance = 0.0;  // cvode rtol
-  std::vector<std::pair<std::string, std::string>> keys;
+  IntegratorSettings settings;
 };
 IntegratorSetting euler_setting(double dt);
 // RESPA (see integrators/respa.hpp): inner level "particles" | "piston", scheme euler | heun.
@@ -256,11 +273,14 @@ IntegratorSetting respa_setting(double dt, int n_inner, const std::string& inner
 IntegratorSetting cvode_setting(double rtol, double atol, long max_steps = 0);
 
 // The scene for a state point, integrator and durations. sample_every is made commensurate
-// with the step, and t_eq, t_av whole multiples of it (t_av at least `blocks` samples).
-std::string scene_toml(const StatePoint& point, const IntegratorSetting& setting, double t_eq,
-                       double t_av, double sample_every, int blocks = 20);
+// with the step (the exact dt the run uses), and t_eq, t_av whole multiples of it (t_av at
+// least `blocks` samples). Numbers are written at round-trip precision.
+StudyScene scene_toml(const StatePoint& point, const IntegratorSetting& setting, double t_eq,
+                      double t_av, double sample_every, int blocks = 20);
 
-// Formats a number for labels and TOML ("0.05", "1e-05").
+// Formats a number for labels ("0.05", "1e-05"; 6 significant digits).
 std::string short_num(double v);
+// Formats a double as a TOML float that parses back to the same double ("0.05", "2.0").
+std::string toml_num(double v);
 
 }  // namespace jamflow::studies

@@ -15,7 +15,7 @@
 #include <sstream>
 #include <thread>
 
-#include "apps/run.hpp"
+#include "driver/run.hpp"
 #include "ensembles/constant_volume.hpp"
 #include "integrators/euler.hpp"
 #include "lib/error.hpp"
@@ -47,7 +47,7 @@ struct Preset {
   double sample_every;
   int replicas;
   double t_relax;  // overlap relaxation of the random start, at constant volume without shear
-  std::string integrator;  // [integrator] body
+  IntegratorSettings integrator;  // handed to the driver as typed settings
 };
 
 // Explicit Euler at dt = 0.3 tau_0, for both ensembles and every preset. Measured at
@@ -56,7 +56,7 @@ struct Preset {
 // sampled states. RESPA with Euler sub-steps (dt = 1, 3 sub-steps, the seed's step) costs 1.5x
 // more per tau_0 and biases the sampled <P_hat> by +6% at J = 10 (+1% at J = 1), an O(dt)
 // splitting error; with Heun on both levels the bias goes but the cost is 3x Euler's.
-const char* const kIntegrator = "kind = \"euler\"\ndt = 0.3\n";
+const IntegratorSettings kIntegrator = IntegratorSettings("euler").set("dt", 0.3);
 
 Preset preset_of(const std::string& name) {
   // About 2000 samples per averaging window (100 per block of the 20), each a whole number of
@@ -88,6 +88,7 @@ double phi_start(double j, std::int64_t n) {
   return std::clamp(phi_j - c * std::pow(j, b), 0.3, 0.64);
 }
 
+// The scene without [integrator] (Preset::integrator is handed over typed).
 std::string scene_toml(const Preset& p, bool constant_pressure, double phi, std::uint64_t seed) {
   const double t_eq = constant_pressure ? p.t_eq : p.t_eq_nv;
   std::ostringstream os;
@@ -100,7 +101,6 @@ std::string scene_toml(const Preset& p, bool constant_pressure, double phi, std:
     os << "kind = \"constant_volume\"\n";
   }
   os << "[shear]\nrate = " << fmt(p.shear_rate) << "\n";
-  os << "[integrator]\n" << p.integrator;
   os << "[run]\nt_eq = " << fmt(t_eq) << "\nt_av = " << fmt(p.t_av)
      << "\nsample_every = " << fmt(p.sample_every) << "\nblocks = 20\nthreads = 1\n";
   return os.str();
@@ -317,10 +317,12 @@ int run_ensemble_study(const StudyOptions& options) {
   // 2. Constant pressure from those states.
   EnsembleRuns np;
   np.name = "constant_pressure";
-  np.spec = spec_from_toml(scene_toml(p, true, phi0, seed0), {}, "<ensemble study NP>");
+  np.spec =
+      spec_from_toml(scene_toml(p, true, phi0, seed0), p.integrator, {}, "<ensemble study NP>");
   np.runs.resize(starts.size());
   run_parallel(starts.size(), workers, [&](std::size_t k) {
-    RunSpec spec = spec_from_toml(scene_toml(p, true, phi0, seed0), {}, "<ensemble study NP>");
+    RunSpec spec =
+        spec_from_toml(scene_toml(p, true, phi0, seed0), p.integrator, {}, "<ensemble study NP>");
     spec.init_state = starts[k];
     np.runs[k] = run_one(spec, seed0 + k, "NP r" + std::to_string(k), options);
   });
@@ -339,10 +341,12 @@ int run_ensemble_study(const StudyOptions& options) {
   // dilated affinely to that phi.
   EnsembleRuns nv;
   nv.name = "constant_volume";
-  nv.spec = spec_from_toml(scene_toml(p, false, phi_nv, seed0), {}, "<ensemble study NV>");
+  nv.spec =
+      spec_from_toml(scene_toml(p, false, phi_nv, seed0), p.integrator, {}, "<ensemble study NV>");
   nv.runs.resize(starts.size());
   run_parallel(starts.size(), workers, [&](std::size_t k) {
-    RunSpec spec = spec_from_toml(scene_toml(p, false, phi_nv, seed0), {}, "<ensemble study NV>");
+    RunSpec spec = spec_from_toml(scene_toml(p, false, phi_nv, seed0), p.integrator, {},
+                                  "<ensemble study NV>");
     State s = np.runs[k].final_state;
     s.box.set_volume(s.particle_volume() / phi_nv);
     s.time = 0.0;

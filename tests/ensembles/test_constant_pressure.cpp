@@ -8,7 +8,7 @@
 #include <cmath>
 #include <filesystem>
 
-#include "apps/run.hpp"
+#include "driver/run.hpp"
 #include "ensembles/constant_pressure.hpp"
 #include "integrators/integrator.hpp"
 #include "lib/error.hpp"

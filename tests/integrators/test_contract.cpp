@@ -15,10 +15,12 @@
 #include <string>
 #include <vector>
 
-#include "apps/run.hpp"
+#include "driver/run.hpp"
 #include "ensembles/constant_pressure.hpp"
 #include "ensembles/constant_volume.hpp"
+#include "ensembles/registry.hpp"
 #include "integrators/euler.hpp"
+#include "integrators/registry.hpp"
 #include "integrators/respa.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
@@ -36,24 +38,45 @@ namespace fs = std::filesystem;
 // stability). An adaptive configuration has no dt: its "step" is the tolerance rtol = atol
 // (atol in units of a), and each test names the tolerance it uses in place of its dt.
 struct Config {
-  const char* label;
-  const char* keys;
+  std::string kind;  // the registered kind
+  std::string label;
+  std::string keys;
   double steady_dt;
   bool adaptive = false;
 };
 
 const Config kConfigs[] = {
-    {"euler", "kind = \"euler\"", 0.05},
-    {"respa_particles_euler", "kind = \"respa\"\nn_inner = 4", 0.2},
-    {"respa_particles_heun", "kind = \"respa\"\nn_inner = 2\ninner_scheme = \"heun\"", 0.2},
-    {"respa_piston_euler", "kind = \"respa\"\nn_inner = 4\ninner = \"piston\"", 0.1},
-    {"respa_piston_heun",
+    {"euler", "euler", "kind = \"euler\"", 0.05},
+    {"respa", "respa_particles_euler", "kind = \"respa\"\nn_inner = 4", 0.2},
+    {"respa", "respa_particles_heun", "kind = \"respa\"\nn_inner = 2\ninner_scheme = \"heun\"",
+     0.2},
+    {"respa", "respa_piston_euler", "kind = \"respa\"\nn_inner = 4\ninner = \"piston\"", 0.1},
+    {"respa", "respa_piston_heun",
      "kind = \"respa\"\nn_inner = 2\ninner = \"piston\"\ninner_scheme = \"heun\"", 0.2},
-    {"respa_mixed",
+    {"respa", "respa_mixed",
      "kind = \"respa\"\nn_inner = 3\ninner_scheme = \"heun\"\nouter_scheme = \"euler\"", 0.2},
-    {"cvode_bdf_spgmr", "kind = \"cvode\"", 1e-4, true},
-    {"cvode_bdf_pcg", "kind = \"cvode\"\nlinear_solver = \"pcg\"", 1e-4, true},
+    {"cvode", "cvode_bdf_spgmr", "kind = \"cvode\"", 1e-4, true},
+    {"cvode", "cvode_bdf_pcg", "kind = \"cvode\"\nlinear_solver = \"pcg\"", 1e-4, true},
 };
+
+// The configurations of every registered kind (integrators/registry.hpp): those above, or for a
+// kind without any, its defaults at a fixed step of 0.05, so that a new integrator is held to
+// the contract as soon as it registers (add its configurations above if it needs other keys).
+std::vector<Config> registered_configs() {
+  std::vector<Config> out;
+  for (const std::string& kind : integrator_kinds()) {
+    bool any = false;
+    for (const auto& c : kConfigs) {
+      if (c.kind == kind) {
+        out.push_back(c);
+        any = true;
+      }
+    }
+    if (!any)
+      out.push_back({kind, kind, "kind = \"" + kind + "\"", 0.05});
+  }
+  return out;
+}
 
 // The step a test uses: its dt for a fixed-step configuration, its tolerance for CVODE.
 double step(const Config& c, double dt, double tol) {
@@ -91,15 +114,36 @@ void PrintTo(const Case& c, std::ostream* os) {
 }
 
 std::string case_name(const ::testing::TestParamInfo<Case>& info) {
-  return std::string(info.param.config.label) + (info.param.kind == Kind::kVolume ? "_NV" : "_NP");
+  return info.param.config.label + (info.param.kind == Kind::kVolume ? "_NV" : "_NP");
 }
 
+// The ensemble kinds the contract knows how to set up, by registered name.
+const std::map<std::string, Kind> kEnsembleKinds = {{"constant_volume", Kind::kVolume},
+                                                    {"constant_pressure", Kind::kPressure}};
+
+// Every registered integrator configuration against every registered ensemble.
 std::vector<Case> all_cases() {
   std::vector<Case> out;
-  for (const auto& c : kConfigs)
-    for (Kind k : {Kind::kVolume, Kind::kPressure})
-      out.push_back({c, k});
+  for (const auto& c : registered_configs())
+    for (const std::string& e : ensemble_kinds())
+      if (kEnsembleKinds.count(e))
+        out.push_back({c, kEnsembleKinds.at(e)});
   return out;
+}
+
+// A new ensemble kind needs its set-up here (kEnsembleKinds and the tests' branches).
+TEST(ContractCoverage, EveryRegisteredEnsembleHasContractSetUp) {
+  for (const std::string& e : ensemble_kinds())
+    EXPECT_TRUE(kEnsembleKinds.count(e)) << "no contract set-up for ensemble kind " << e;
+}
+
+TEST(ContractCoverage, EveryRegisteredIntegratorIsTested) {
+  for (const std::string& kind : integrator_kinds()) {
+    int n = 0;
+    for (const Case& c : all_cases())
+      n += c.config.kind == kind;
+    EXPECT_GE(n, 2) << kind << " has no contract cases";
+  }
 }
 
 class Contract : public ::testing::TestWithParam<Case> {};
@@ -222,7 +266,8 @@ TEST_P(Contract, MeasuredOrderMatchesDeclared) {
   const auto ens = order_ensemble(c.kind);
   const double t_end = 0.4;
   // Reference: second-order RESPA (Heun on both levels) at a step 16x below the smallest tested.
-  const Config ref_cfg{"ref", "kind = \"respa\"\nn_inner = 1\ninner_scheme = \"heun\"", 0.0};
+  const Config ref_cfg{"respa", "ref", "kind = \"respa\"\nn_inner = 1\ninner_scheme = \"heun\"",
+                       0.0};
   auto ref_integ = make(ref_cfg, 0.005 / 16.0);
   const auto ref = final_coordinates(*ref_integ, *ens, t_end);
   // Fixed steps: three halvings of dt against the declared order. CVODE: six decades of the
@@ -303,7 +348,7 @@ SeedMeans seed_means(Kind k, const Config& c, std::uint64_t first_seed, int seed
 
 TEST_P(Contract, SteadyStateMeansAgreeWithReferenceEuler) {
   const Case c = GetParam();
-  if (std::string(c.config.label) == "euler")
+  if (c.config.label == "euler")
     GTEST_SKIP() << "the reference itself";
   // The error is measured from independent seeds, not from one run's block errors. At this state
   // point the means of independent runs spread 2.0x (t_av = 2000, 20 blocks) to 1.5x (t_av = 8000,

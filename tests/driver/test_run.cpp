@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <functional>
 
-#include "apps/run.hpp"
+#include "driver/run.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "lib/xyz.hpp"
@@ -186,8 +186,15 @@ TEST(Run, SceneValidationNamesKeyValueAndRange) {
             std::string::npos);
   EXPECT_NE(config_error(base, {"run.blocks=100"}).find("fewer than [run] blocks = 100"),
             std::string::npos);
-  EXPECT_NE(config_error(base, {"ensemble.kind=npt"}).find("allowed \"constant_volume\""),
+  // Unknown kinds list the registered ones (ensembles/registry.hpp, integrators/registry.hpp).
+  EXPECT_NE(config_error(base, {"ensemble.kind=npt"})
+                .find("allowed \"constant_pressure\", \"constant_volume\""),
             std::string::npos);
+  EXPECT_NE(config_error(base, {"integrator.kind=rk4"})
+                .find("[integrator] kind = \"rk4\" is not allowed; allowed \"cvode\", \"euler\", "
+                      "\"respa\""),
+            std::string::npos)
+      << config_error(base, {"integrator.kind=rk4"});
   // A constant-volume scene gets no piston: piston keys are unknown there.
   EXPECT_NE(config_error(base, {"ensemble.pressure=1e-3"}).find("unknown key [ensemble] pressure"),
             std::string::npos);

@@ -11,6 +11,7 @@
 
 #include "ensembles/ensemble.hpp"
 #include "integrators/integrator.hpp"
+#include "integrators/registry.hpp"
 #include "lib/config.hpp"
 #include "lib/model.hpp"
 #include "lib/state.hpp"
@@ -42,17 +43,22 @@ struct RunSpec {
   std::string file = "jamflow.h5";
   double trajectory_every = 0.0;  // 0: no trajectory file
   // Parts: the ensemble is stateless and shared; integrators keep history and counters, so
-  // each replica makes its own from the scene.
+  // each replica makes its own from the typed settings.
   std::shared_ptr<const Ensemble> ensemble;
-  std::string integrator_kind;
+  IntegratorSettings integrator;    // [integrator], exactly as given (kind, dt, ...)
   std::optional<State> init_state;  // loaded from `init`
-  Scene scene;
   std::unique_ptr<Integrator> make_integrator() const;
 };
 
 // Validates the scene: unknown sections or keys, missing keys and out-of-range values are
 // ConfigErrors naming the key, the value and what is allowed.
 RunSpec parse_run_spec(const Scene& scene);
+
+// The same for a scene without an [integrator] section and typed integrator settings (what the
+// studies use): the run uses exactly these values, and scene_text describes them exactly
+// (doubles at round-trip precision). A scene that has an [integrator] section is a ConfigError
+// (two sources for one setting).
+RunSpec parse_run_spec(const Scene& scene, const IntegratorSettings& integrator);
 
 struct Sample {
   double time, strain, volume, phi, pressure, sigma_xy, energy, dissipation, piston_dissipation;

@@ -1,0 +1,58 @@
+// Studies hand typed integrator settings to the driver: a step of dt = 0.1 / 3 is run at exactly
+// that double (not at a 6-digit print of it), and sample_every is a whole number of those steps.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "studies/diagnostics.hpp"
+
+namespace jamflow::studies {
+namespace {
+
+TEST(StudyTypedSettings, EulerAtOneThirdOfAPointOneRunsAtExactlyThatStep) {
+  const double dt = 0.1 / 3.0;
+  StatePoint p;
+  p.name = "typed";
+  p.n = 100;
+  p.constant_pressure = false;
+  p.phi = 0.6;
+  p.gdot = 1e-3;
+  const IntegratorSetting setting = euler_setting(dt);
+  EXPECT_EQ(setting.dt, dt);
+  const StudyScene scene = scene_toml(p, setting, 0.0, 10.0, 0.5);
+  ASSERT_TRUE(scene.integrator.has_value());
+  const RunSpec spec = scene.spec({"run.threads=1"});
+
+  // The run's step is the study's double.
+  EXPECT_EQ(spec.integrator.number("dt"), dt);
+  EXPECT_EQ(spec.make_integrator()->nominal_dt(), dt);
+  // sample_every is commensurate with that same double: 15 steps of dt, exactly.
+  const double steps_per_sample = std::round(spec.sample_every / dt);
+  EXPECT_EQ(steps_per_sample, 15.0);
+  EXPECT_EQ(spec.sample_every, steps_per_sample * dt);
+  EXPECT_EQ(spec.sample_every, commensurate(0.5, dt));
+
+  // The stored scene describes the run exactly: dt and sample_every round-trip bit for bit.
+  const Scene stored = Scene::parse(spec.scene_text, "stored");
+  ConfigSection integ = stored.section("integrator");
+  EXPECT_EQ(integ.number("dt", Range::positive()), dt);
+  ConfigSection run = stored.section("run");
+  EXPECT_EQ(run.number("sample_every", Range::positive()), spec.sample_every);
+  EXPECT_EQ(parse_run_spec(stored).integrator, spec.integrator);
+
+  // No step is shortened to land on a sample: exactly 15 Euler steps per sample interval (a
+  // step printed as 0.0333333 would need a 16th, tiny step every sample).
+  RunOptions o;
+  o.quiet = true;
+  const ReplicaResult r = run_replica(spec, 1, o);
+  ASSERT_EQ(r.status, "complete");
+  const double samples = std::round((spec.t_eq + spec.t_av) / spec.sample_every);
+  double steps = -1.0;
+  for (const auto& [k, v] : r.integrator_stats)
+    if (k == "steps")
+      steps = v;
+  EXPECT_EQ(steps, samples * steps_per_sample);
+}
+
+}  // namespace
+}  // namespace jamflow::studies
