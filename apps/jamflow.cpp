@@ -31,7 +31,8 @@ int run_command(const std::vector<std::string>& args) {
   app.add_option("scene", scene_path, "scene file (TOML); omitted: the embedded default scene");
   app.add_option("-o,--output", out_path, "output HDF5 file (overrides [output] file)");
   app.add_option("--set", sets, "override a scene value: section.key=value (repeatable)");
-  app.add_option("--threads", threads, "OpenMP threads (0 = all; overrides [run] threads)")
+  app.add_option("--threads", threads,
+                 "OpenMP threads (default 1; 0 = all cores; overrides [run] threads)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--replicas", replicas, "independent replicas (overrides [run] replicas)")
       ->check(CLI::PositiveNumber);

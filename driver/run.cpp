@@ -151,7 +151,9 @@ RunSpec parse_run_spec(const Scene& scene) {
   spec.sample_every = run.number("sample_every", Range::positive());
   spec.blocks = run.integer("blocks", 20, 2, 100000);
   spec.replicas = run.integer("replicas", 1, 1, 10000);
-  spec.threads = static_cast<int>(run.integer("threads", 0, 0, 1024));
+  // One thread unless asked: runs side by side (studies, sweeps, several users) then never
+  // compete for cores; see README "Threads".
+  spec.threads = static_cast<int>(run.integer("threads", 1, 0, 1024));
   run.finish();
   const double window_samples = std::floor(spec.t_av / spec.sample_every + 1e-9);
   if (window_samples < double(spec.blocks)) {
@@ -329,6 +331,9 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   mo.skin = spec.skin;
   mo.threads = spec.threads;
   Model model(initial_state(spec, seed), mo);
+  res.kernel = model.force_field().kernel();
+  res.kernel_target = model.force_field().target();
+  res.threads = model.force_field().threads();
   std::unique_ptr<Integrator> integ = spec.make_integrator();
   const Ensemble& ens = *spec.ensemble;
 
@@ -472,6 +477,11 @@ bool write_run_file(const RunSpec& spec, const std::vector<ReplicaResult>& repli
   w.attr("/", "version", JAMFLOW_VERSION);
   w.attr("/", "git_commit", JAMFLOW_GIT_COMMIT);
   w.attr("/", "created", iso_now());
+  if (!replicas.empty()) {
+    w.attr("/", "kernel", replicas.front().kernel);
+    w.attr("/", "kernel_target", replicas.front().kernel_target);
+    w.attr("/", "threads", static_cast<std::int64_t>(replicas.front().threads));
+  }
   w.attr("/", "replicas", static_cast<std::int64_t>(replicas.size()));
   std::string failed;
   for (const auto& r : replicas) {
@@ -541,6 +551,9 @@ int run_and_write(const RunSpec& spec, const RunOptions& options) {
   std::printf("jamflow run: N = %lld, %s, %s, gdot = %g -> %s\n", (long long)spec.n,
               spec.ensemble->name().c_str(), spec.integrator.kind.c_str(), spec.shear_rate,
               spec.file.c_str());
+  std::printf("  kernel         = %s on %s, %d thread%s\n", results.front().kernel.c_str(),
+              results.front().kernel_target.c_str(), results.front().threads,
+              results.front().threads == 1 ? "" : "s");
   if (count > 1) {
     std::printf("  mean over %zu replicas +- block error +- replica-scatter error\n", count);
   }

@@ -94,6 +94,9 @@ struct ReplicaResult {
   double wall_seconds = 0.0;
   std::uint64_t seed = 0;
   std::string status = "complete";  // or the failure / interruption message
+  // Provenance: the force backend, the instruction-set target it ran on, and the thread count.
+  std::string kernel, kernel_target;
+  int threads = 1;
 };
 
 struct RunOptions {

@@ -10,6 +10,7 @@
 
 #include "driver/run.hpp"
 #include "lib/error.hpp"
+#include "lib/forces.hpp"
 #include "lib/h5.hpp"
 #include "lib/xyz.hpp"
 
@@ -134,6 +135,12 @@ TEST(Run, WritesTheDocumentedHdf5Layout) {
     EXPECT_FALSE(h.attr_string("/", a).empty()) << a;
   }
   EXPECT_NE(h.attr_string("/", "scene").find("rate = 0.001"), std::string::npos);
+  // Provenance of the force pass: the backend and target this machine gave, and the default of
+  // one thread.
+  const ForceField field(spec.alpha, 1);
+  EXPECT_EQ(h.attr_string("/", "kernel"), field.kernel());
+  EXPECT_EQ(h.attr_string("/", "kernel_target"), field.target());
+  EXPECT_EQ(h.attr_int("/", "threads"), 1);
   // The final configuration is also an extended XYZ file that reads back to the same cell.
   const State fin = read_xyz(dir.file("run.final.xyz"));
   EXPECT_EQ(fin.size(), 64u);
