@@ -167,6 +167,7 @@ HWY_INLINE void LoadChunk(D d, const double* pos, const double* shift, V sign,
 struct Sums {
   V u, wxx, wyy, wzz, wxy, wxz, wyz;
   std::size_t contacts = 0;
+  hn::Indices256<double> lane[4];  // permutations that spread lane l over all four
 };
 
 // The pair law on a chunk, and its pair forces added to the rows of both particles (or, for a
@@ -194,10 +195,13 @@ HWY_INLINE void EvaluateChunk(D d, const Pair& pair, const Chunk& c, double* frc
   s.wxz = hn::MulAdd(rx, gz, s.wxz);
   s.wyz = hn::MulAdd(ry, gz, s.wyz);
   // Pair force rows: f/r times the pair's row. The fourth lane (f/r times a_ij) is never read.
-  alignas(32) double fr[4];
-  hn::Store(f_over_r, d, fr);
+  // Lane l of f/r is spread by a permutation in registers: a store and four reloads of its
+  // lanes would wait for store forwarding.
+  const V fr[4] = {
+      hn::TableLookupLanes(f_over_r, s.lane[0]), hn::TableLookupLanes(f_over_r, s.lane[1]),
+      hn::TableLookupLanes(f_over_r, s.lane[2]), hn::TableLookupLanes(f_over_r, s.lane[3])};
   for (int l = 0; l < 4; ++l) {
-    const V g = hn::Mul(hn::Set(d, fr[l]), c.d[l]);
+    const V g = hn::Mul(fr[l], c.d[l]);
     double* fi = frc + c.io[l];
     hn::Store(hn::Add(hn::Load(d, fi), g), d, fi);
     if (Single || (c.jo[l] >= lo_off && c.jo[l] < hi_off)) {
@@ -216,7 +220,11 @@ HWY_INLINE void LoopOf(const Pair& pair, PairLoop& p) {
   const D d;
   alignas(32) static constexpr double kSign[4] = {1.0, 1.0, 1.0, -1.0};
   const V zero = hn::Zero(d), sign = hn::Load(d, kSign);
-  Sums s{zero, zero, zero, zero, zero, zero, zero, 0};
+  Sums s{zero, zero, zero, zero, zero, zero, zero, 0, {}};
+  for (int l = 0; l < 4; ++l) {
+    const std::int64_t idx[4] = {l, l, l, l};
+    s.lane[l] = hn::SetTableIndices(d, idx);
+  }
   std::size_t nd = 0;
   const double* pos = p.pos;
   const double* shift = p.shift;
@@ -226,8 +234,15 @@ HWY_INLINE void LoopOf(const Pair& pair, PairLoop& p) {
   const std::uint32_t* entries = p.entries;
   const std::size_t lo_off = std::size_t(p.lo) << 2, hi_off = std::size_t(p.hi) << 2;
   const std::size_t k0 = p.k0, k1 = p.k1, full = k0 + (k1 - k0) / 4 * 4;
-  // Full chunks, the next one's rows loaded while the current one is evaluated.
-  if (k0 < full) {
+  // Full chunks. With 32 vector registers (AVX-512) the next chunk's rows are loaded while the
+  // current one is evaluated; with 16 (AVX2) that would spill, and one chunk at a time is faster.
+  if (HWY_TARGET == HWY_AVX2) {
+    for (std::size_t k = k0; k < full; k += 4) {
+      Chunk a;
+      LoadChunk(d, pos, shift, sign, owner + k, entries + k, a);
+      EvaluateChunk<Single>(d, pair, a, frc, lo_off, hi_off, deferred, nd, s);
+    }
+  } else if (k0 < full) {
     Chunk a, b;
     LoadChunk(d, pos, shift, sign, owner + k0, entries + k0, a);
     std::size_t k = k0 + 4;
