@@ -42,6 +42,11 @@ void ForceField::compute(const State& state, const NeighbourList& list, ForceRes
   backend_->compute(state, list, out);
 }
 
+bool ForceField::compute_and_drift(State& state, const NeighbourList& list, ForceResult& out,
+                                   const Drift& drift) const {
+  return backend_->compute_and_drift(state, list, out, drift);
+}
+
 void ForceField::compute_all_pairs(const State& state, ForceResult& out) const {
   // The general law even at alpha_r = 2, so that the harmonic one is checked against it.
   kernels::reference_forces(PowerPair{alpha_}, state, out);

@@ -13,21 +13,6 @@
 
 namespace jamflow {
 
-// The particle drift of an explicit Euler step in scaled coordinates, s += D F, with
-// D = h_new^-1 dt / xi_s (upper triangular, as h is).
-struct Drift {
-  double xx, xy, yy, zz;
-  static Drift of(const Eigen::Matrix3d& h_inv, double dt_over_xi) {
-    return {h_inv(0, 0) * dt_over_xi, h_inv(0, 1) * dt_over_xi, h_inv(1, 1) * dt_over_xi,
-            h_inv(2, 2) * dt_over_xi};
-  }
-  void apply(double& x, double& y, double& z, double fx, double fy, double fz) const {
-    x += xx * fx + xy * fy;
-    y += yy * fy;
-    z += zz * fz;
-  }
-};
-
 class ForceField {
  public:
   // alpha_r in [1.2, 3]; threads <= 0 means all OpenMP threads available; kernel is one of
@@ -45,6 +30,11 @@ class ForceField {
 
   // One pass over the neighbour list's inner list (which must be valid for the state).
   void compute(const State& state, const NeighbourList& list, ForceResult& out) const;
+  // compute() and an explicit Euler drift of every particle in one pass, where the backend can
+  // (see ForceBackend::compute_and_drift): false, with the state untouched, when the inner list
+  // does not hold for the state.
+  bool compute_and_drift(State& state, const NeighbourList& list, ForceResult& out,
+                         const Drift& drift) const;
   // Reference path: every pair, minimum image, no list. O(N^2), for tests.
   void compute_all_pairs(const State& state, ForceResult& out) const;
 

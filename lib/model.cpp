@@ -63,6 +63,25 @@ const Evaluation& Model::evaluate() {
   return eval_;
 }
 
+const Evaluation& Model::evaluate_and_drift(const Drift& drift, const Box& next) {
+  if (!list_.built() || list_.inner_reference().size() != state_.pos.size())
+    refresh_list();
+  fresh_ = false;  // whatever happens below, the state moves or the pass is repeated
+  if (!field_.compute_and_drift(state_, list_, eval_.forces, drift)) {
+    // The list no longer holds (or a position is not finite): renew it and repeat; the second
+    // pass stops only for a non-finite state, which evaluate() then reports.
+    refresh_list(true);
+    if (!field_.compute_and_drift(state_, list_, eval_.forces, drift)) {
+      evaluate();
+      throw IntegrationError("the neighbour list does not hold after a rebuild at t = " +
+                             std::to_string(state_.time));
+    }
+  }
+  observe();
+  state_.box = next;
+  return eval_;
+}
+
 void Model::observe() {
   ++evaluations_;
   const double v = state_.box.volume();

@@ -50,6 +50,12 @@ class Model {
 
   // Forces and observables of the current configuration (computed once, then cached).
   const Evaluation& evaluate();
+  // An explicit Euler step's particle drift, asked of the force backend as one pass: the
+  // observables (and forces) of the current configuration are evaluated, every particle then
+  // moves by s += D F, and the cell becomes `next` (D is mapped with it). The same state, bit
+  // for bit, as evaluate(), the cell change, and Drift::apply with the evaluation's forces.
+  // The returned evaluation is of the configuration before the step; none is cached after it.
+  const Evaluation& evaluate_and_drift(const Drift& drift, const Box& next);
   // Changes the state: f(State&) is called with the state, and the cached evaluation is dropped
   // afterwards. This is the only write access, so an evaluation can never be stale.
   template <class F>

@@ -1,6 +1,7 @@
 // The reference backend and the choice of backend.
 #include "lib/kernels/backend.hpp"
 
+#include <cmath>
 #include <cstdlib>
 #include <string>
 
@@ -16,6 +17,16 @@ std::unique_ptr<ForceBackend> make_portable_backend(double alpha, int threads);
 
 namespace {
 
+void apply_drift(State& state, const ForceResult& out, const Drift& drift) {
+  const std::size_t n = state.size();
+  double* x = state.x();
+  double* y = state.y();
+  double* z = state.z();
+  const double* f = out.force.data();
+  for (std::size_t i = 0; i < n; ++i)
+    drift.apply(x[i], y[i], z[i], f[i], f[n + i], f[2 * n + i]);
+}
+
 class ReferenceBackend final : public ForceBackend {
  public:
   explicit ReferenceBackend(double alpha) : alpha_(alpha) {}
@@ -25,6 +36,13 @@ class ReferenceBackend final : public ForceBackend {
   void compute(const State& state, const NeighbourList&, ForceResult& out) override {
     reference_forces(PowerPair{alpha_}, state, out);
   }
+  // Needs no list, so the pass always goes on.
+  bool compute_and_drift(State& state, const NeighbourList&, ForceResult& out,
+                         const Drift& drift) override {
+    compute(state, NeighbourList(), out);
+    apply_drift(state, out, drift);
+    return true;
+  }
 
  private:
   double alpha_;
@@ -32,6 +50,15 @@ class ReferenceBackend final : public ForceBackend {
 
 }  // namespace
 }  // namespace kernels
+
+bool ForceBackend::compute_and_drift(State& state, const NeighbourList& list, ForceResult& out,
+                                     const Drift& drift) {
+  compute(state, list, out);
+  if (!list.inner_holds(state, std::sqrt(out.max_drift2)))
+    return false;
+  kernels::apply_drift(state, out, drift);
+  return true;
+}
 
 std::string baseline_target() {
 #if defined(__AVX512F__)

@@ -32,6 +32,22 @@ struct ForceResult {
   double max_drift2 = 0.0;
 };
 
+// The particle drift of an explicit Euler step in scaled coordinates, s += D F, with
+// D = h_new^-1 dt / xi_s (upper triangular, as h is). Every loop that applies it evaluates
+// x + ((xx fx) + (xy fy)), y + yy fy, z + zz fz in that order, so that all give the same bits.
+struct Drift {
+  double xx, xy, yy, zz;
+  static Drift of(const Eigen::Matrix3d& h_inv, double dt_over_xi) {
+    return {h_inv(0, 0) * dt_over_xi, h_inv(0, 1) * dt_over_xi, h_inv(1, 1) * dt_over_xi,
+            h_inv(2, 2) * dt_over_xi};
+  }
+  void apply(double& x, double& y, double& z, double fx, double fy, double fz) const {
+    x += xx * fx + xy * fy;
+    y += yy * fy;
+    z += zz * fz;
+  }
+};
+
 class ForceBackend {
  public:
   virtual ~ForceBackend() = default;
@@ -42,6 +58,12 @@ class ForceBackend {
   virtual std::string target() const = 0;
   // One force pass. The list must be valid for the state (the reference backend ignores it).
   virtual void compute(const State& state, const NeighbourList& list, ForceResult& out) = 0;
+  // A capability an integrator may ask for: compute() and then drift.apply() to every particle
+  // with its force, the same state bit for bit. Returns false, with the state untouched and
+  // out.max_drift2 set, when the inner list does not hold for the state (renew it and call
+  // again). This default does exactly that sequence; a backend may fuse the drift into its pass.
+  virtual bool compute_and_drift(State& state, const NeighbourList& list, ForceResult& out,
+                                 const Drift& drift);
 };
 
 // The backends a user can ask for, and "auto" (simd where the CPU has a vector target for it,

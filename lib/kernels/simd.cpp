@@ -338,8 +338,10 @@ double LayOut(const simd_detail::Rows& a) {
 }
 
 // The final force rows of particles [lo, hi) into the SoA result f (n per component); returns
-// sum |F|^2 over them.
-double CopyOut(const double* frc, double* f, std::size_t n, std::size_t lo, std::size_t hi) {
+// sum |F|^2 over them. With a drift (xx, xy, yy, zz of lib/kernels/backend.hpp's Drift), each
+// particle's scaled position in s then moves by it, in Drift::apply's order of operations.
+double CopyOut(const double* frc, double* f, std::size_t n, std::size_t lo, std::size_t hi,
+               const double* drift, double* s) {
   const D d;
   V acc = hn::Zero(d);
   std::size_t i = lo;
@@ -351,12 +353,25 @@ double CopyOut(const double* frc, double* f, std::size_t n, std::size_t lo, std:
     hn::StoreU(y, d, f + n + i);
     hn::StoreU(z, d, f + 2 * n + i);
     acc = hn::MulAdd(z, z, hn::MulAdd(y, y, hn::MulAdd(x, x, acc)));
+    if (drift) {
+      const V sx = hn::LoadU(d, s + i), sy = hn::LoadU(d, s + n + i),
+              sz = hn::LoadU(d, s + 2 * n + i);
+      hn::StoreU(
+          hn::Add(sx, hn::Add(hn::Mul(hn::Set(d, drift[0]), x), hn::Mul(hn::Set(d, drift[1]), y))),
+          d, s + i);
+      hn::StoreU(hn::Add(sy, hn::Mul(hn::Set(d, drift[2]), y)), d, s + n + i);
+      hn::StoreU(hn::Add(sz, hn::Mul(hn::Set(d, drift[3]), z)), d, s + 2 * n + i);
+    }
   }
   double rest = 0.0;
   for (; i < hi; ++i) {
     for (int c = 0; c < 3; ++c) {
       f[c * n + i] = frc[4 * i + c];
       rest += frc[4 * i + c] * frc[4 * i + c];
+    }
+    if (drift) {
+      const Drift dr{drift[0], drift[1], drift[2], drift[3]};
+      dr.apply(s[i], s[n + i], s[2 * n + i], f[i], f[n + i], f[2 * n + i]);
     }
   }
   return LaneSum(d, acc) + rest;
@@ -425,12 +440,17 @@ double LayOut(const simd_detail::Rows& a) {
   return std::isfinite(total) ? mx : std::nan("");
 }
 
-double CopyOut(const double* frc, double* f, std::size_t n, std::size_t lo, std::size_t hi) {
+double CopyOut(const double* frc, double* f, std::size_t n, std::size_t lo, std::size_t hi,
+               const double* drift, double* s) {
   double f2 = 0.0;
   for (std::size_t i = lo; i < hi; ++i) {
     for (int c = 0; c < 3; ++c) {
       f[c * n + i] = frc[4 * i + c];
       f2 += frc[4 * i + c] * frc[4 * i + c];
+    }
+    if (drift) {
+      const Drift dr{drift[0], drift[1], drift[2], drift[3]};
+      dr.apply(s[i], s[n + i], s[2 * n + i], f[i], f[n + i], f[2 * n + i]);
     }
   }
   return f2;
@@ -492,9 +512,21 @@ class SimdBackend final : public ForceBackend {
   SimdBackend(double alpha, int threads) : alpha_(alpha), threads_(threads) {}
   std::string name() const override { return "simd"; }
   std::string target() const override { return HWY_DYNAMIC_DISPATCH(TargetName)(); }
-  void compute(const State& state, const NeighbourList& list, ForceResult& out) override;
+  void compute(const State& state, const NeighbourList& list, ForceResult& out) override {
+    pass(state, list, out, nullptr, nullptr);
+  }
+  // The drift is fused into the pass: a particle moves as soon as its force is final.
+  bool compute_and_drift(State& state, const NeighbourList& list, ForceResult& out,
+                         const Drift& drift) override {
+    return pass(state, list, out, &drift, state.pos.data());
+  }
 
  private:
+  // With a drift, only if the inner list holds for the state (else false, state untouched);
+  // `moving` is the state's own positions.
+  bool pass(const State& state, const NeighbourList& list, ForceResult& out, const Drift* drift,
+            double* moving);
+
   double alpha_;
   int threads_;
   hwy::AlignedFreeUniquePtr<double[]> rows_;  // position rows, then force rows
@@ -503,7 +535,8 @@ class SimdBackend final : public ForceBackend {
   std::vector<std::size_t> deferred_count_;
 };
 
-void SimdBackend::compute(const State& state, const NeighbourList& list, ForceResult& out) {
+bool SimdBackend::pass(const State& state, const NeighbourList& list, ForceResult& out,
+                       const Drift* drift, double* moving) {
   const std::size_t n = state.size();
   out.force.resize(3 * n);
   const int nt = threads_;
@@ -535,6 +568,21 @@ void SimdBackend::compute(const State& state, const NeighbourList& list, ForceRe
   const auto pairs = HWY_DYNAMIC_DISPATCH(Pairs);
   const auto lay_out = HWY_DYNAMIC_DISPATCH(LayOut);
   const auto copy_out = HWY_DYNAMIC_DISPATCH(CopyOut);
+  // With a drift the pass goes on only if the list holds, from every thread's largest
+  // displacement (NaN: a position is not finite), as NeighbourList::inner_holds decides.
+  const double allowed = drift ? list.inner_drift_allowed(state) : 0.0;
+  const auto list_holds = [&] {
+    double m = 0.0;
+    bool finite = true;
+    for (const double d2 : sums.drift2) {
+      finite = finite && !std::isnan(d2);
+      m = std::max(m, d2);
+    }
+    return have_ref && finite && std::sqrt(m) <= allowed;
+  };
+  const double dmat[4] = {drift ? drift->xx : 0.0, drift ? drift->xy : 0.0, drift ? drift->yy : 0.0,
+                          drift ? drift->zz : 0.0};
+  bool holds = true;
 
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
@@ -565,44 +613,51 @@ void SimdBackend::compute(const State& state, const NeighbourList& list, ForceRe
       // Every row is written before any thread reads its partners'.
 #pragma omp barrier
     }
-    simd_detail::PairLoop p{};
-    p.pos = pos;
-    p.frc = frc;
-    p.shift = shift;
-    p.owner = list.inner_owner().data();
-    p.entries = list.inner_entries().data();
-    p.k0 = start[lo];
-    p.k1 = start[hi];
-    p.lo = std::uint32_t(lo);
-    p.hi = std::uint32_t(hi);
-    p.idle = std::uint32_t(idle);
-    p.single = nthr == 1;
-    p.alpha = alpha_;
-    p.deferred = deferred.data();
-    pairs(p);
-    sums.energy[tid] = p.energy;
-    sums.virial[tid] << p.virial[0], p.virial[1], p.virial[2], p.virial[3], p.virial[4],
-        p.virial[5];
-    sums.contacts[tid] = p.contacts;
-    deferred_count_[tid] = p.deferred_count;
-    if (nthr > 1) {
+    // Every thread decides the same (they read the same displacements after the barrier).
+    const bool go = !drift || list_holds();
+    if (tid == 0)
+      holds = go;
+    if (go) {
+      simd_detail::PairLoop p{};
+      p.pos = pos;
+      p.frc = frc;
+      p.shift = shift;
+      p.owner = list.inner_owner().data();
+      p.entries = list.inner_entries().data();
+      p.k0 = start[lo];
+      p.k1 = start[hi];
+      p.lo = std::uint32_t(lo);
+      p.hi = std::uint32_t(hi);
+      p.idle = std::uint32_t(idle);
+      p.single = nthr == 1;
+      p.alpha = alpha_;
+      p.deferred = deferred.data();
+      pairs(p);
+      sums.energy[tid] = p.energy;
+      sums.virial[tid] << p.virial[0], p.virial[1], p.virial[2], p.virial[3], p.virial[4],
+          p.virial[5];
+      sums.contacts[tid] = p.contacts;
+      deferred_count_[tid] = p.deferred_count;
+      if (nthr > 1) {
 #pragma omp barrier
-      // The forces other threads deferred to this range, in thread order.
-      for (int u = 0; u < nthr; ++u) {
-        const DeferredForce* df = deferred_[u].data();
-        for (std::size_t q = 0; q < deferred_count_[u]; ++q) {
-          if (df[q].j >= lo && df[q].j < hi) {
-            double* row = frc + 4 * std::size_t(df[q].j);
-            row[0] += df[q].fx;
-            row[1] += df[q].fy;
-            row[2] += df[q].fz;
+        // The forces other threads deferred to this range, in thread order.
+        for (int u = 0; u < nthr; ++u) {
+          const DeferredForce* df = deferred_[u].data();
+          for (std::size_t q = 0; q < deferred_count_[u]; ++q) {
+            if (df[q].j >= lo && df[q].j < hi) {
+              double* row = frc + 4 * std::size_t(df[q].j);
+              row[0] += df[q].fx;
+              row[1] += df[q].fy;
+              row[2] += df[q].fz;
+            }
           }
         }
       }
+      sums.squared[tid] = copy_out(frc, fx, n, lo, hi, drift ? dmat : nullptr, moving);
     }
-    sums.squared[tid] = copy_out(frc, fx, n, lo, hi);
   }
   sums.finish(out, have_ref);
+  return holds;
 }
 
 }  // namespace
