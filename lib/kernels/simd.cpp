@@ -92,6 +92,44 @@ const char* TargetName() {
   return hwy::TargetName(HWY_TARGET);
 }
 
+// One particle at a time from `from` on: the rows and displacements of LayOut (the largest and
+// the sum of the squared displacements are updated), and CopyOut's forces and drift (returns
+// the sum of |F|^2). The vector loops end with these for their last few particles; targets
+// narrower than 256 bits use them throughout.
+void LayOutFrom(const simd_detail::Rows& a, std::size_t from, double& mx, double& total) {
+  const std::size_t n = a.n;
+  for (std::size_t i = from; i < a.hi; ++i) {
+    const double x = a.s[i], y = a.s[n + i], z = a.s[2 * n + i];
+    double* r = a.pos + 4 * i;
+    r[0] = a.hxx * x + a.hxy * y;
+    r[1] = a.hyy * y;
+    r[2] = a.hzz * z;
+    r[3] = 0.5 * a.diameter[i];
+    std::fill(a.frc + 4 * i, a.frc + 4 * i + 4, 0.0);
+    const double ux = x - a.ref[i], uy = y - a.ref[n + i], uz = z - a.ref[2 * n + i];
+    const double rx = a.hxx * ux + a.hxy * uy, ry = a.hyy * uy, rz = a.hzz * uz;
+    const double d2 = rx * rx + ry * ry + rz * rz;
+    mx = d2 > mx ? d2 : mx;
+    total += d2;
+  }
+}
+
+double CopyOutFrom(const double* frc, double* f, std::size_t n, std::size_t from, std::size_t hi,
+                   const double* drift, double* s) {
+  double f2 = 0.0;
+  for (std::size_t i = from; i < hi; ++i) {
+    for (int c = 0; c < 3; ++c) {
+      f[c * n + i] = frc[4 * i + c];
+      f2 += frc[4 * i + c] * frc[4 * i + c];
+    }
+    if (drift) {
+      const Drift dr{drift[0], drift[1], drift[2], drift[3]};
+      dr.apply(s[i], s[n + i], s[2 * n + i], f[i], f[n + i], f[2 * n + i]);
+    }
+  }
+  return f2;
+}
+
 #if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX2
 constexpr bool kVector = true;
 using D = hn::Full256<double>;
@@ -320,20 +358,7 @@ double LayOut(const simd_detail::Rows& a) {
     sum = hn::Add(sum, d2);
   }
   double mx = hn::GetLane(hn::MaxOfLanes(d, m)), total = LaneSum(d, sum);
-  for (; i < a.hi; ++i) {
-    const double x = s[i], y = s[n + i], z = s[2 * n + i];
-    double* r = a.pos + 4 * i;
-    r[0] = a.hxx * x + a.hxy * y;
-    r[1] = a.hyy * y;
-    r[2] = a.hzz * z;
-    r[3] = 0.5 * a.diameter[i];
-    std::fill(a.frc + 4 * i, a.frc + 4 * i + 4, 0.0);
-    const double ux = x - ref[i], uy = y - ref[n + i], uz = z - ref[2 * n + i];
-    const double rx = a.hxx * ux + a.hxy * uy, ry = a.hyy * uy, rz = a.hzz * uz;
-    const double d2 = rx * rx + ry * ry + rz * rz;
-    mx = d2 > mx ? d2 : mx;
-    total += d2;
-  }
+  LayOutFrom(a, i, mx, total);
   return std::isfinite(total) ? mx : std::nan("");
 }
 
@@ -363,17 +388,7 @@ double CopyOut(const double* frc, double* f, std::size_t n, std::size_t lo, std:
       hn::StoreU(hn::Add(sz, hn::Mul(hn::Set(d, drift[3]), z)), d, s + 2 * n + i);
     }
   }
-  double rest = 0.0;
-  for (; i < hi; ++i) {
-    for (int c = 0; c < 3; ++c) {
-      f[c * n + i] = frc[4 * i + c];
-      rest += frc[4 * i + c] * frc[4 * i + c];
-    }
-    if (drift) {
-      const Drift dr{drift[0], drift[1], drift[2], drift[3]};
-      dr.apply(s[i], s[n + i], s[2 * n + i], f[i], f[n + i], f[2 * n + i]);
-    }
-  }
+  const double rest = CopyOutFrom(frc, f, n, i, hi, drift, s);
   return LaneSum(d, acc) + rest;
 }
 #else
@@ -421,39 +436,14 @@ HWY_INLINE void Loop(const Pair& pair, PairLoop& p) {
 }
 
 double LayOut(const simd_detail::Rows& a) {
-  const std::size_t n = a.n;
   double mx = 0.0, total = 0.0;
-  for (std::size_t i = a.lo; i < a.hi; ++i) {
-    const double x = a.s[i], y = a.s[n + i], z = a.s[2 * n + i];
-    double* r = a.pos + 4 * i;
-    r[0] = a.hxx * x + a.hxy * y;
-    r[1] = a.hyy * y;
-    r[2] = a.hzz * z;
-    r[3] = 0.5 * a.diameter[i];
-    std::fill(a.frc + 4 * i, a.frc + 4 * i + 4, 0.0);
-    const double ux = x - a.ref[i], uy = y - a.ref[n + i], uz = z - a.ref[2 * n + i];
-    const double rx = a.hxx * ux + a.hxy * uy, ry = a.hyy * uy, rz = a.hzz * uz;
-    const double d2 = rx * rx + ry * ry + rz * rz;
-    mx = d2 > mx ? d2 : mx;
-    total += d2;
-  }
+  LayOutFrom(a, a.lo, mx, total);
   return std::isfinite(total) ? mx : std::nan("");
 }
 
 double CopyOut(const double* frc, double* f, std::size_t n, std::size_t lo, std::size_t hi,
                const double* drift, double* s) {
-  double f2 = 0.0;
-  for (std::size_t i = lo; i < hi; ++i) {
-    for (int c = 0; c < 3; ++c) {
-      f[c * n + i] = frc[4 * i + c];
-      f2 += frc[4 * i + c] * frc[4 * i + c];
-    }
-    if (drift) {
-      const Drift dr{drift[0], drift[1], drift[2], drift[3]};
-      dr.apply(s[i], s[n + i], s[2 * n + i], f[i], f[n + i], f[2 * n + i]);
-    }
-  }
-  return f2;
+  return CopyOutFrom(frc, f, n, lo, hi, drift, s);
 }
 #endif
 
