@@ -38,13 +38,15 @@ ForceField& ForceField::operator=(const ForceField& other) {
   return *this;
 }
 
-void ForceField::compute(const State& state, const NeighbourList& list, ForceResult& out) const {
-  backend_->compute(state, list, out);
+void ForceField::compute(const State& state, const NeighbourList& list, ForceResult& out,
+                         std::uint64_t version) const {
+  backend_->compute(state, list, out, version);
 }
 
 bool ForceField::compute_and_drift(State& state, const NeighbourList& list, ForceResult& out,
-                                   const Drift& drift) const {
-  return backend_->compute_and_drift(state, list, out, drift);
+                                   const Drift& drift, const Box& next, std::uint64_t version,
+                                   std::uint64_t next_version) const {
+  return backend_->compute_and_drift(state, list, out, drift, next, version, next_version);
 }
 
 void ForceField::compute_all_pairs(const State& state, ForceResult& out) const {

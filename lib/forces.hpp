@@ -27,14 +27,19 @@ class ForceField {
   // runs on (e.g. "AVX3", "AVX2").
   std::string kernel() const { return backend_->name(); }
   std::string target() const { return backend_->target(); }
+  // Passes that started from data the previous pass prepared (see ForceBackend).
+  std::size_t prepared_passes() const { return backend_->prepared_passes(); }
 
-  // One pass over the neighbour list's inner list (which must be valid for the state).
-  void compute(const State& state, const NeighbourList& list, ForceResult& out) const;
+  // One pass over the neighbour list's inner list (which must be valid for the state);
+  // `version` numbers the state (lib/kernels/backend.hpp), 0 if unknown.
+  void compute(const State& state, const NeighbourList& list, ForceResult& out,
+               std::uint64_t version = 0) const;
   // compute() and an explicit Euler drift of every particle in one pass, where the backend can
   // (see ForceBackend::compute_and_drift): false, with the state untouched, when the inner list
   // does not hold for the state.
   bool compute_and_drift(State& state, const NeighbourList& list, ForceResult& out,
-                         const Drift& drift) const;
+                         const Drift& drift, const Box& next, std::uint64_t version = 0,
+                         std::uint64_t next_version = 0) const;
   // Reference path: every pair, minimum image, no list. O(N^2), for tests.
   void compute_all_pairs(const State& state, ForceResult& out) const;
 

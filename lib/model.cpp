@@ -24,7 +24,7 @@ void Model::reset_state(State state) {
   state_ = std::move(state);
   particle_volume_ = state_.particle_volume();
   list_.invalidate();
-  fresh_ = false;
+  changed();
   sorted_once_ = false;
 }
 
@@ -41,6 +41,7 @@ void Model::refresh_list(bool renew) {
       return;
     case NeighbourList::Status::kStale:
       state_.wrap();
+      changed();
       list_.build(state_, field_.threads());
       return;
   }
@@ -53,10 +54,10 @@ const Evaluation& Model::evaluate() {
   // in the rare step where the list no longer holds, it is renewed and the pass repeated.
   if (!list_.built() || list_.inner_reference().size() != state_.pos.size())
     refresh_list();
-  field_.compute(state_, list_, eval_.forces);
+  field_.compute(state_, list_, eval_.forces, version_);
   if (!list_.inner_holds(state_, std::sqrt(eval_.forces.max_drift2))) {
     refresh_list(true);
-    field_.compute(state_, list_, eval_.forces);
+    field_.compute(state_, list_, eval_.forces, version_);
   }
   observe();
   fresh_ = true;
@@ -67,11 +68,12 @@ const Evaluation& Model::evaluate_and_drift(const Drift& drift, const Box& next)
   if (!list_.built() || list_.inner_reference().size() != state_.pos.size())
     refresh_list();
   fresh_ = false;  // whatever happens below, the state moves or the pass is repeated
-  if (!field_.compute_and_drift(state_, list_, eval_.forces, drift)) {
+  if (!field_.compute_and_drift(state_, list_, eval_.forces, drift, next, version_, version_ + 1)) {
     // The list no longer holds (or a position is not finite): renew it and repeat; the second
     // pass stops only for a non-finite state, which evaluate() then reports.
     refresh_list(true);
-    if (!field_.compute_and_drift(state_, list_, eval_.forces, drift)) {
+    if (!field_.compute_and_drift(state_, list_, eval_.forces, drift, next, version_,
+                                  version_ + 1)) {
       evaluate();
       throw IntegrationError("the neighbour list does not hold after a rebuild at t = " +
                              std::to_string(state_.time));
@@ -79,6 +81,7 @@ const Evaluation& Model::evaluate_and_drift(const Drift& drift, const Box& next)
   }
   observe();
   state_.box = next;
+  ++version_;  // the number the pass was told the new state gets
   return eval_;
 }
 
@@ -99,11 +102,11 @@ void Model::observe() {
 }
 
 bool Model::prepare_step() {
-  bool changed = false;
+  bool moved = false;
   if (const int dir = state_.box.remap_direction(); dir != 0) {
     state_.remap(dir);
     list_.invalidate();
-    changed = true;
+    moved = true;
   }
   // Sort on the first step (initial states come in arbitrary memory order), then every
   // sort_every rebuilds as particles diffuse.
@@ -112,11 +115,11 @@ bool Model::prepare_step() {
        list_.builds() >= builds_at_last_sort_ + std::size_t(options_.sort_every))) {
     sorted_once_ = true;
     sort_particles();
-    changed = true;
+    moved = true;
   }
-  if (changed)
-    fresh_ = false;
-  return changed;
+  if (moved)
+    changed();
+  return moved;
 }
 
 void Model::sort_particles() {

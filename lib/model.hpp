@@ -60,9 +60,11 @@ class Model {
   // afterwards. This is the only write access, so an evaluation can never be stale.
   template <class F>
   decltype(auto) modify(F&& f) {
-    fresh_ = false;
+    changed();
     return std::forward<F>(f)(state_);
   }
+  // The number of the current state (lib/kernels/backend.hpp): new after every change.
+  std::uint64_t version() const { return version_; }
   // The clock alone (no force depends on it): keeps the cached evaluation.
   void set_time(double t) { state_.time = t; }
 
@@ -80,6 +82,11 @@ class Model {
   // Renews the lists as status() says; with `renew`, the force pass found that the inner list
   // no longer holds, so it is renewed even if status() calls it valid.
   void refresh_list(bool renew = false);
+  // The state changed: the cached evaluation is dropped and the state gets a new number.
+  void changed() {
+    fresh_ = false;
+    ++version_;
+  }
   void observe();  // eval_'s observables from its forces
   void sort_particles();
 
@@ -89,6 +96,9 @@ class Model {
   NeighbourList list_;
   Evaluation eval_;
   bool fresh_ = false;
+  // The number of the state (0 is "unknown" to the backends). A copied model's force field
+  // gets a backend of its own, which keeps nothing from the original's passes.
+  std::uint64_t version_ = 1;
   std::size_t evaluations_ = 0;
   std::size_t builds_at_last_sort_ = 0;
   bool sorted_once_ = false;

@@ -33,13 +33,13 @@ class ReferenceBackend final : public ForceBackend {
   std::string name() const override { return "reference"; }
   std::string target() const override { return baseline_target(); }
   // The general law even at alpha_r = 2, so that the harmonic one is checked against it.
-  void compute(const State& state, const NeighbourList&, ForceResult& out) override {
+  void compute(const State& state, const NeighbourList&, ForceResult& out, std::uint64_t) override {
     reference_forces(PowerPair{alpha_}, state, out);
   }
   // Needs no list, so the pass always goes on.
-  bool compute_and_drift(State& state, const NeighbourList&, ForceResult& out,
-                         const Drift& drift) override {
-    compute(state, NeighbourList(), out);
+  bool compute_and_drift(State& state, const NeighbourList&, ForceResult& out, const Drift& drift,
+                         const Box&, std::uint64_t, std::uint64_t) override {
+    reference_forces(PowerPair{alpha_}, state, out);
     apply_drift(state, out, drift);
     return true;
   }
@@ -52,8 +52,9 @@ class ReferenceBackend final : public ForceBackend {
 }  // namespace kernels
 
 bool ForceBackend::compute_and_drift(State& state, const NeighbourList& list, ForceResult& out,
-                                     const Drift& drift) {
-  compute(state, list, out);
+                                     const Drift& drift, const Box&, std::uint64_t version,
+                                     std::uint64_t) {
+  compute(state, list, out, version);
   if (!list.inner_holds(state, std::sqrt(out.max_drift2)))
     return false;
   kernels::apply_drift(state, out, drift);

@@ -10,6 +10,7 @@
 #pragma once
 #include <Eigen/Dense>
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -31,6 +32,11 @@ struct ForceResult {
   // NaN when a position is not finite.
   double max_drift2 = 0.0;
 };
+
+// States are numbered by their owner (lib/model.hpp): every change of positions, cell or
+// particle order gets a new number, so that a backend may keep data derived from a state
+// between passes and know, by its number, whether it still belongs to the state it is given.
+// 0 means unknown: nothing is reused.
 
 // The particle drift of an explicit Euler step in scaled coordinates, s += D F, with
 // D = h_new^-1 dt / xi_s (upper triangular, as h is). Every loop that applies it evaluates
@@ -57,13 +63,21 @@ class ForceBackend {
   // (e.g. "AVX3", "AVX2"); for the others the build's baseline.
   virtual std::string target() const = 0;
   // One force pass. The list must be valid for the state (the reference backend ignores it).
-  virtual void compute(const State& state, const NeighbourList& list, ForceResult& out) = 0;
+  // `version` numbers the state (see StateVersion); 0 means unknown.
+  virtual void compute(const State& state, const NeighbourList& list, ForceResult& out,
+                       std::uint64_t version) = 0;
   // A capability an integrator may ask for: compute() and then drift.apply() to every particle
-  // with its force, the same state bit for bit. Returns false, with the state untouched and
-  // out.max_drift2 set, when the inner list does not hold for the state (renew it and call
-  // again). This default does exactly that sequence; a backend may fuse the drift into its pass.
+  // with its force, the same state bit for bit; the caller then gives the state the cell `next`
+  // and the number `next_version`. Returns false, with the state untouched and out.max_drift2
+  // set, when the inner list does not hold for the state (renew it and call again). This default
+  // does exactly that sequence; a backend may fuse the drift into its pass, and prepare the next
+  // pass for the state it leaves.
   virtual bool compute_and_drift(State& state, const NeighbourList& list, ForceResult& out,
-                                 const Drift& drift);
+                                 const Drift& drift, const Box& next, std::uint64_t version,
+                                 std::uint64_t next_version);
+  // Passes that started from data the previous pass prepared for their state (0 if the backend
+  // keeps none); for tests and benchmarks.
+  virtual std::size_t prepared_passes() const { return 0; }
 };
 
 // The backends a user can ask for, and "auto" (simd where the CPU has a vector target for it,

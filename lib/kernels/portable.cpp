@@ -27,7 +27,8 @@ class PortableBackend final : public ForceBackend {
   PortableBackend(double alpha, int threads) : alpha_(alpha), threads_(threads) {}
   std::string name() const override { return "portable"; }
   std::string target() const override { return baseline_target(); }
-  void compute(const State& state, const NeighbourList& list, ForceResult& out) override {
+  void compute(const State& state, const NeighbourList& list, ForceResult& out,
+               std::uint64_t) override {
     with_pair_law(alpha_, [&](const auto& pair) { pass(pair, state, list, out); });
   }
 

@@ -502,21 +502,45 @@ class SimdBackend final : public ForceBackend {
   SimdBackend(double alpha, int threads) : alpha_(alpha), threads_(threads) {}
   std::string name() const override { return "simd"; }
   std::string target() const override { return HWY_DYNAMIC_DISPATCH(TargetName)(); }
-  void compute(const State& state, const NeighbourList& list, ForceResult& out) override {
-    pass(state, list, out, nullptr, nullptr);
+  void compute(const State& state, const NeighbourList& list, ForceResult& out,
+               std::uint64_t version) override {
+    pass(state, list, out, version, nullptr, nullptr, nullptr, 0);
   }
-  // The drift is fused into the pass: a particle moves as soon as its force is final.
+  // The drift is fused into the pass: a particle moves as soon as its force is final, and its
+  // row for the next pass is laid out in the next cell right away.
   bool compute_and_drift(State& state, const NeighbourList& list, ForceResult& out,
-                         const Drift& drift) override {
-    return pass(state, list, out, &drift, state.pos.data());
+                         const Drift& drift, const Box& next, std::uint64_t version,
+                         std::uint64_t next_version) override {
+    const Eigen::Matrix3d h_next = next.h();
+    return pass(state, list, out, version, &drift, state.pos.data(), &h_next, next_version);
   }
 
  private:
   // With a drift, only if the inner list holds for the state (else false, state untouched);
-  // `moving` is the state's own positions.
-  bool pass(const State& state, const NeighbourList& list, ForceResult& out, const Drift* drift,
-            double* moving);
+  // `moving` is the state's own positions. With a next cell and a next version, the rows of
+  // the drifted state are laid out for the pass that state gets.
+  bool pass(const State& state, const NeighbourList& list, ForceResult& out, std::uint64_t version,
+            const Drift* drift, double* moving, const Eigen::Matrix3d* h_next,
+            std::uint64_t next_version);
 
+  // Rows laid out ahead by a drifting pass: for the state numbered `version` (0: none), with the
+  // inner list `generation`, n particles, `threads` threads and the cell h (xx, xy, yy, zz);
+  // the force rows zeroed and each thread's displacement measured. A pass for any other state,
+  // list, size, split or cell lays its rows out afresh.
+  struct Ahead {
+    std::uint64_t version = 0, generation = 0;
+    std::size_t n = 0;
+    int threads = 0;
+    double h[4] = {0.0, 0.0, 0.0, 0.0};
+    std::vector<double> drift2;
+  };
+  Ahead ahead_;
+  std::size_t reused_ = 0;
+
+ public:
+  std::size_t prepared_passes() const override { return reused_; }
+
+ private:
   double alpha_;
   int threads_;
   hwy::AlignedFreeUniquePtr<double[]> rows_;  // position rows, then force rows
@@ -526,7 +550,8 @@ class SimdBackend final : public ForceBackend {
 };
 
 bool SimdBackend::pass(const State& state, const NeighbourList& list, ForceResult& out,
-                       const Drift* drift, double* moving) {
+                       std::uint64_t version, const Drift* drift, double* moving,
+                       const Eigen::Matrix3d* h_next, std::uint64_t next_version) {
   const std::size_t n = state.size();
   out.force.resize(3 * n);
   const int nt = threads_;
@@ -573,11 +598,28 @@ bool SimdBackend::pass(const State& state, const NeighbourList& list, ForceResul
   const double dmat[4] = {drift ? drift->xx : 0.0, drift ? drift->xy : 0.0, drift ? drift->yy : 0.0,
                           drift ? drift->zz : 0.0};
   bool holds = true;
+  // The rows laid out ahead, if they are this state's; any pass uses them up.
+  const bool ahead = version != 0 && ahead_.version == version && have_ref &&
+                     ahead_.generation == list.inner_generation() && ahead_.n == n &&
+                     ahead_.h[0] == hxx && ahead_.h[1] == hxy && ahead_.h[2] == hyy &&
+                     ahead_.h[3] == hzz && rows_size_ >= 8 * rows;
+  const int ahead_threads = ahead_.threads;
+  ahead_.version = 0;
+  if (ahead)
+    sums.drift2 = ahead_.drift2;
+  std::vector<double> next_drift2(nt, 0.0);
+  int used_threads = 1;
 
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
     const int tid = omp_get_thread_num();
     const int nthr = omp_get_num_threads();
+    // Every thread decides the same.
+    const bool reuse = ahead && nthr == ahead_threads;
+    if (tid == 0) {
+      used_threads = nthr;
+      reused_ += reuse ? 1 : 0;
+    }
     const auto [lo, hi] = thread_range(start, n, tid, nthr);
     // Without a reference the displacement is not used (finish() reports it as infinite).
     const simd_detail::Rows rows_of{state.pos.data(),
@@ -592,7 +634,8 @@ bool SimdBackend::pass(const State& state, const NeighbourList& list, ForceResul
                                     hzz,
                                     pos,
                                     frc};
-    sums.drift2[tid] = lay_out(rows_of);
+    if (!reuse)
+      sums.drift2[tid] = lay_out(rows_of);
     const std::size_t idle = n + std::size_t(tid);
     std::fill(pos + 4 * idle, pos + 4 * idle + 4, 0.0);
     std::fill(frc + 4 * idle, frc + 4 * idle + 4, 0.0);
@@ -600,8 +643,11 @@ bool SimdBackend::pass(const State& state, const NeighbourList& list, ForceResul
     if (nthr > 1) {
       // At most one per pair, and three padding pairs.
       deferred.resize(std::max<std::size_t>(deferred.size(), start[hi] - start[lo] + 4));
-      // Every row is written before any thread reads its partners'.
+      // Every row is written before any thread reads its partners' (rows laid out ahead were
+      // written before the previous pass ended; a branch every thread takes alike).
+      if (!reuse) {
 #pragma omp barrier
+      }
     }
     // Every thread decides the same (they read the same displacements after the barrier).
     const bool go = !drift || list_holds();
@@ -644,9 +690,35 @@ bool SimdBackend::pass(const State& state, const NeighbourList& list, ForceResul
         }
       }
       sums.squared[tid] = copy_out(frc, fx, n, lo, hi, drift ? dmat : nullptr, moving);
+      if (drift && h_next) {
+        // No thread reads this range's rows any more: lay out the next pass's.
+        const Eigen::Matrix3d& hn = *h_next;
+        const simd_detail::Rows next_rows{moving,
+                                          have_ref ? ref : moving,
+                                          state.diameter.data(),
+                                          n,
+                                          lo,
+                                          hi,
+                                          hn(0, 0),
+                                          hn(0, 1),
+                                          hn(1, 1),
+                                          hn(2, 2),
+                                          pos,
+                                          frc};
+        next_drift2[tid] = lay_out(next_rows);
+      }
     }
   }
   sums.finish(out, have_ref);
+  if (drift && h_next && holds && next_version != 0 && have_ref) {
+    ahead_.version = next_version;
+    ahead_.generation = list.inner_generation();
+    ahead_.n = n;
+    ahead_.threads = used_threads;
+    const double hn[4] = {(*h_next)(0, 0), (*h_next)(0, 1), (*h_next)(1, 1), (*h_next)(2, 2)};
+    std::copy(hn, hn + 4, ahead_.h);
+    ahead_.drift2 = next_drift2;
+  }
   return holds;
 }
 
