@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,10 @@ struct BackendCase {
   std::string target;  // simd: the Highway target it is pinned to
   bool supported = true;
 };
+
+void PrintTo(const BackendCase& c, std::ostream* os) {
+  *os << c.kernel << (c.target.empty() ? "" : " on " + c.target);
+}
 
 std::vector<BackendCase> backend_cases() {
   std::vector<BackendCase> out = {{"portable", "", true}};
