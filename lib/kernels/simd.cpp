@@ -488,14 +488,23 @@ void apply_pin() {
 }
 
 // The environment's pin, applied once.
-void pin_from_environment() {
-  static const bool once = [] {
-    if (const char* name = std::getenv("JAMFLOW_SIMD_TARGET"); name && *name)
-      simd_pin_target(name);
-    return true;
-  }();
-  (void)once;
+// The environment's pin (JAMFLOW_SIMD_TARGET), or "" for none.
+std::string environment_pin() {
+  const char* name = std::getenv("JAMFLOW_SIMD_TARGET");
+  return name ? std::string(name) : std::string();
 }
+
+// Applies the environment's pin before the first dispatch, unless an explicit pin came first.
+bool pin_settled = false;
+void pin_from_environment() {
+  if (pin_settled)
+    return;
+  pin_settled = true;
+  if (const std::string name = environment_pin(); !name.empty())
+    simd_pin_target(name);
+}
+
+void pin_exactly(const std::string& name);
 
 class SimdBackend final : public ForceBackend {
  public:
@@ -754,12 +763,20 @@ SimdTarget simd_current_target() {
 }
 
 void simd_pin_target(const std::string& name) {
+  pin_settled = true;
+  pin_exactly(name.empty() ? environment_pin() : name);
+}
+
+namespace {
+
+void pin_exactly(const std::string& name) {
   if (name.empty()) {
     pinned = 0;
     apply_pin();
     return;
   }
-  pinned = 0;  // describe() sees every target the CPU supports
+  const std::int64_t before = pinned;  // kept if the name is refused
+  pinned = 0;                          // describe() sees every target the CPU supports
   apply_pin();
   std::string names;
   for (const std::int64_t bits : compiled_targets()) {
@@ -769,17 +786,24 @@ void simd_pin_target(const std::string& name) {
   for (const std::int64_t bits : compiled_targets()) {
     const SimdTarget t = describe(bits);
     if (t.name == name) {
-      if (!t.supported)
+      if (!t.supported) {
+        pinned = before;
+        apply_pin();
         throw ConfigError("JAMFLOW_SIMD_TARGET = \"" + name + "\": this CPU cannot run it; " +
                           "allowed: " + names);
+      }
       pinned = bits;
       apply_pin();
       return;
     }
   }
+  pinned = before;
+  apply_pin();
   throw ConfigError("JAMFLOW_SIMD_TARGET = \"" + name +
                     "\" is not a compiled target; allowed: " + names);
 }
+
+}  // namespace
 
 std::unique_ptr<ForceBackend> make_simd_backend(double alpha, int threads) {
   pin_from_environment();

@@ -23,7 +23,8 @@ std::vector<SimdTarget> simd_targets();
 // The target the next pass dispatches to.
 SimdTarget simd_current_target();
 // Restricts dispatch to the target named `name` (a ConfigError if it was not compiled or this
-// CPU cannot run it); an empty name lifts the restriction. Process-wide.
+// CPU cannot run it); an empty name goes back to the environment's JAMFLOW_SIMD_TARGET, or to
+// no restriction. Process-wide; an explicit pin wins over the environment's.
 void simd_pin_target(const std::string& name);
 
 std::unique_ptr<ForceBackend> make_simd_backend(double alpha, int threads);
