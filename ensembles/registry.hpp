@@ -12,17 +12,14 @@
 
 #include "ensembles/ensemble.hpp"
 #include "lib/config.hpp"
+#include "lib/registry.hpp"
 
 namespace jamflow {
 
 // Per-kind factory: reads the kind's own keys from the section (`kind` has been read).
 using EnsembleFactory = std::unique_ptr<Ensemble> (*)(ConfigSection& section, double shear_rate);
 
-struct EnsembleKind {
-  std::string kind;
-  std::string description;  // one line, for --help and error messages
-  EnsembleFactory factory = nullptr;
-};
+using EnsembleKind = RegisteredKind<EnsembleFactory>;
 
 // Adds a kind; a kind registered twice is a logic_error.
 void register_ensemble(std::string kind, EnsembleFactory factory, std::string description);

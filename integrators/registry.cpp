@@ -10,10 +10,8 @@ namespace jamflow {
 
 namespace {
 
-std::map<std::string, IntegratorKind>& mutable_registry() {
-  static std::map<std::string, IntegratorKind> kinds;
-  return kinds;
-}
+constexpr char kIntegrator[] = "integrator";
+using Integrators = Registry<IntegratorFactory, kIntegrator>;
 
 }  // namespace
 
@@ -75,30 +73,20 @@ IntegratorSettings IntegratorSettings::from_table(const toml::table& table) {
 }
 
 void register_integrator(std::string kind, IntegratorFactory factory, std::string description) {
-  auto& kinds = mutable_registry();
-  if (kinds.count(kind))
-    throw std::logic_error("integrator kind '" + kind + "' registered twice");
-  IntegratorKind entry{kind, std::move(description), factory};
-  kinds.emplace(std::move(kind), std::move(entry));
+  Integrators::add(std::move(kind), factory, std::move(description));
 }
 
 std::vector<IntegratorKind> registered_integrators() {
-  std::vector<IntegratorKind> out;
-  for (const auto& [name, entry] : mutable_registry())
-    out.push_back(entry);
-  return out;
+  return Integrators::entries();
 }
 
 std::vector<std::string> integrator_kinds() {
-  std::vector<std::string> out;
-  for (const auto& [name, entry] : mutable_registry())
-    out.push_back(name);
-  return out;
+  return Integrators::kinds();
 }
 
 std::unique_ptr<Integrator> make_integrator(ConfigSection& section) {
   const std::string kind = section.choice("kind", integrator_kinds());
-  std::unique_ptr<Integrator> integ = mutable_registry().at(kind).factory(section);
+  std::unique_ptr<Integrator> integ = Integrators::factory(kind)(section);
   section.finish();
   return integ;
 }

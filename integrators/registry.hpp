@@ -20,6 +20,7 @@
 
 #include "integrators/integrator.hpp"
 #include "lib/config.hpp"
+#include "lib/registry.hpp"
 
 namespace jamflow {
 
@@ -59,11 +60,7 @@ struct IntegratorSettings {
 // Per-kind factory: reads the kind's own keys from the section (`kind` has been read).
 using IntegratorFactory = std::unique_ptr<Integrator> (*)(ConfigSection& section);
 
-struct IntegratorKind {
-  std::string kind;
-  std::string description;  // one line, for --help and error messages
-  IntegratorFactory factory = nullptr;
-};
+using IntegratorKind = RegisteredKind<IntegratorFactory>;
 
 // Adds a kind; a kind registered twice is a logic_error (two integrators claiming one name).
 void register_integrator(std::string kind, IntegratorFactory factory, std::string description);

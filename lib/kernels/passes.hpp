@@ -79,18 +79,17 @@ struct ThreadSums {
   }
 };
 
-// Adds the forces that other threads deferred to particles of [lo, hi), in thread order.
-inline void add_deferred(const std::vector<std::vector<DeferredForce>>& deferred,
-                         const std::vector<std::size_t>& counts, std::size_t lo, std::size_t hi,
-                         double* fx, double* fy, double* fz) {
+// Hands add(j, force) the forces that the threads deferred to particles of [lo, hi), in
+// thread order.
+template <class Add>
+void add_deferred(const std::vector<std::vector<DeferredForce>>& deferred,
+                  const std::vector<std::size_t>& counts, std::size_t lo, std::size_t hi,
+                  const Add& add) {
   for (std::size_t u = 0; u < counts.size(); ++u) {
     const DeferredForce* d = deferred[u].data();
     for (std::size_t q = 0; q < counts[u]; ++q) {
-      if (d[q].j >= lo && d[q].j < hi) {
-        fx[d[q].j] += d[q].fx;
-        fy[d[q].j] += d[q].fy;
-        fz[d[q].j] += d[q].fz;
-      }
+      if (d[q].j >= lo && d[q].j < hi)
+        add(d[q].j, d[q]);
     }
   }
 }

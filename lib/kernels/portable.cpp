@@ -181,7 +181,12 @@ void PortableBackend::pass(const Pair& pair, const State& state, const Neighbour
     deferred_count_[tid] = nd;
     if (nthr > 1) {
 #pragma omp barrier
-      add_deferred(deferred_, deferred_count_, lo, hi, fx, fy, fz);
+      add_deferred(deferred_, deferred_count_, lo, hi,
+                   [&](std::uint32_t j, const DeferredForce& df) {
+                     fx[j] += df.fx;
+                     fy[j] += df.fy;
+                     fz[j] += df.fz;
+                   });
     }
     // The forces of this range are final: their squared sum.
     double f2 = 0.0;

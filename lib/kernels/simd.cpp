@@ -686,17 +686,13 @@ bool SimdBackend::pass(const State& state, const NeighbourList& list, ForceResul
       if (nthr > 1) {
 #pragma omp barrier
         // The forces other threads deferred to this range, in thread order.
-        for (int u = 0; u < nthr; ++u) {
-          const DeferredForce* df = deferred_[u].data();
-          for (std::size_t q = 0; q < deferred_count_[u]; ++q) {
-            if (df[q].j >= lo && df[q].j < hi) {
-              double* row = frc + 4 * std::size_t(df[q].j);
-              row[0] += df[q].fx;
-              row[1] += df[q].fy;
-              row[2] += df[q].fz;
-            }
-          }
-        }
+        add_deferred(deferred_, deferred_count_, lo, hi,
+                     [&](std::uint32_t j, const DeferredForce& df) {
+                       double* row = frc + 4 * std::size_t(j);
+                       row[0] += df.fx;
+                       row[1] += df.fy;
+                       row[2] += df.fz;
+                     });
       }
       sums.squared[tid] = copy_out(frc, fx, n, lo, hi, drift ? dmat : nullptr, moving);
       if (drift && h_next) {
