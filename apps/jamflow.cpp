@@ -4,28 +4,45 @@
 #include <csignal>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <string>
 #include <vector>
 
 #include "analysis/analyze_cli.hpp"
+#include "driver/checkpoint.hpp"
 #include "driver/run.hpp"
 #include "ensembles/registry.hpp"
 #include "integrators/registry.hpp"
 #include "lib/error.hpp"
+#include "lib/h5.hpp"
 #include "studies/study.hpp"
 
 namespace {
 
-std::atomic<bool> g_stop{false};
-extern "C" void on_signal(int) {
-  g_stop.store(true);
+jamflow::RunControl g_control;
+extern "C" void on_signal(int sig) {
+  if (sig == SIGUSR1)
+    g_control.checkpoint.store(true);
+  else
+    g_control.signal.store(sig);
+}
+
+// Overrides that --extend accepts: what lengthens the averaging window, nothing that changes
+// the physics of the samples already taken.
+bool extend_may_set(const std::string& set) {
+  for (const char* key : {"run.t_av=", "run.target_error=", "run.max_time=", "run.threads=",
+                          "output.checkpoint_every="}) {
+    if (set.rfind(key, 0) == 0)
+      return true;
+  }
+  return false;
 }
 
 int run_command(const std::vector<std::string>& args) {
   CLI::App app{"Run one state point described by a scene (TOML).", "jamflow run"};
-  std::string scene_path, out_path;
+  std::string scene_path, out_path, resume_path, extend_path;
   std::vector<std::string> sets;
-  bool quiet = false;
+  bool quiet = false, force = false;
   int threads = -1;
   int replicas = 0;
   app.add_option("scene", scene_path, "scene file (TOML); omitted: the embedded default scene");
@@ -36,6 +53,12 @@ int run_command(const std::vector<std::string>& args) {
       ->check(CLI::NonNegativeNumber);
   app.add_option("--replicas", replicas, "independent replicas (overrides [run] replicas)")
       ->check(CLI::PositiveNumber);
+  app.add_option(
+      "--resume", resume_path,
+      "continue an interrupted run from its checkpoint OUT.h5.part (scene from the file)");
+  app.add_option("--extend", extend_path,
+                 "lengthen a finished run OUT.h5: --set run.t_av=T appends to its series");
+  app.add_flag("--force", force, "overwrite an existing output or checkpoint");
   app.add_flag("-q,--quiet", quiet, "no progress line");
   std::vector<std::string> rev(args.rbegin(), args.rend());
   try {
@@ -43,9 +66,48 @@ int run_command(const std::vector<std::string>& args) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
-  jamflow::Scene scene = scene_path.empty()
-                             ? jamflow::Scene::parse(jamflow::kDefaultScene, "<default scene>")
-                             : jamflow::Scene::load(scene_path);
+  jamflow::OutputOptions output;
+  output.force = force;
+  jamflow::Scene scene = jamflow::Scene::parse(jamflow::kDefaultScene, "<default scene>");
+  if (!resume_path.empty() || !extend_path.empty()) {
+    if (!resume_path.empty() && !extend_path.empty())
+      throw jamflow::ConfigError("--resume and --extend were both given; allowed one of them");
+    const bool extend = !extend_path.empty();
+    const std::string from = extend ? extend_path : resume_path;
+    if (!scene_path.empty() || replicas > 0 || !out_path.empty())
+      throw jamflow::ConfigError(std::string(extend ? "--extend" : "--resume") +
+                                 " takes the scene and output from '" + from +
+                                 "'; a scene file, -o and --replicas are not allowed with it");
+    const std::string part = ".part";
+    if (!extend && (from.size() <= part.size() ||
+                    from.compare(from.size() - part.size(), part.size(), part) != 0))
+      throw jamflow::ConfigError("--resume '" + from +
+                                 "': allowed a checkpoint file OUT.h5.part (finished runs are "
+                                 "lengthened with --extend)");
+    for (const auto& s : sets) {
+      if (extend ? !extend_may_set(s) : s.rfind("run.threads=", 0) != 0)
+        throw jamflow::ConfigError(
+            "--set " + s + " with " + (extend ? "--extend" : "--resume") + "; allowed " +
+            (extend ? "run.t_av, run.target_error, run.max_time, run.threads, "
+                      "output.checkpoint_every"
+                    : "run.threads (a continued run keeps its scene)"));
+    }
+    const jamflow::H5Reader file(from);
+    scene = jamflow::Scene::parse(file.attr_string("/", "scene"), from);
+    const std::string status = file.attr_string("/", "status");
+    if (extend && status != "complete")
+      throw jamflow::ConfigError("--extend '" + from + "': the run's status is \"" + status +
+                                 "\"; allowed finished runs (continue others with --resume)");
+    output.continue_from = jamflow::read_checkpoint(file);
+    output.extend = extend;
+    const std::string out = extend ? from : from.substr(0, from.size() - part.size());
+    scene.set("output.file=\"" + out + "\"");
+    if (!extend && !force && std::filesystem::exists(out))
+      throw jamflow::ConfigError("--resume: '" + out +
+                                 "' exists already; pass --force to replace it");
+  } else if (!scene_path.empty()) {
+    scene = jamflow::Scene::load(scene_path);
+  }
   for (const auto& s : sets)
     scene.set(s);
   if (!out_path.empty())
@@ -55,12 +117,20 @@ int run_command(const std::vector<std::string>& args) {
   if (replicas > 0)
     scene.set("run.replicas=" + std::to_string(replicas));
   const jamflow::RunSpec spec = jamflow::parse_run_spec(scene);
+  if (output.extend) {
+    const auto& first = output.continue_from->front().series.samples;
+    const double done = first.empty() ? 0.0 : first.back().time;
+    if (spec.t_eq + spec.t_av < done - 1e-9 * spec.sample_every)
+      throw jamflow::ConfigError("[run] t_av = " + jamflow::fmt(spec.t_av) +
+                                 " with --extend: the run has reached t = " + jamflow::fmt(done) +
+                                 "; allowed t_eq + t_av >= that");
+  }
   jamflow::RunOptions opt;
   opt.quiet = quiet;
-  opt.stop = &g_stop;
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
-  return jamflow::run_and_write(spec, opt);
+  opt.control = &g_control;
+  for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGUSR1})
+    std::signal(sig, on_signal);
+  return jamflow::run_and_write(spec, opt, output);
 }
 
 void print_usage() {
@@ -68,6 +138,7 @@ void print_usage() {
       "jamflow %s: overdamped shear rheology of soft spheres near jamming\n\n"
       "usage:\n"
       "  jamflow run [SCENE.toml] [-o OUT.h5] [--set section.key=value]... [--threads N]\n"
+      "              [--force] [--resume OUT.h5.part | --extend OUT.h5 --set run.t_av=T]\n"
       "  jamflow scene                       print the embedded default scene\n"
       "  jamflow analyze {hard-sphere|soft|olsson-teitel} DATA... -o OUT.json\n"
       "  jamflow study NAME --preset {quick|standard|paper}\n"

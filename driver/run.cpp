@@ -1,15 +1,20 @@
 // The run driver: scene -> state -> time loop with sampling -> summary -> HDF5 + XYZ.
 #include "driver/run.hpp"
 
+#include <unistd.h>
+
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <stdexcept>
+#include <thread>
 
+#include "driver/checkpoint.hpp"
 #include "integrators/registry.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
@@ -165,6 +170,7 @@ RunSpec parse_run_spec(const Scene& scene) {
   ConfigSection out = scene.section("output");
   spec.file = out.text("file", "jamflow.h5");
   spec.trajectory_every = out.number("trajectory_every", 0.0, Range::non_negative());
+  spec.checkpoint_every = out.number("checkpoint_every", 600.0, Range{1e-3, 1e9});
   out.finish();
   if (spec.trajectory_every > 0.0) {
     const double ratio = spec.trajectory_every / spec.sample_every;
@@ -322,7 +328,68 @@ State initial_state(const RunSpec& spec, std::uint64_t seed) {
   return random_state(static_cast<std::size_t>(spec.n), spec.phi, seed);
 }
 
-ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOptions& options) {
+namespace {
+
+std::string signal_name(int sig) {
+  switch (sig) {
+    case SIGTERM:
+      return "SIGTERM";
+    case SIGINT:
+      return "SIGINT";
+    case SIGHUP:
+      return "SIGHUP";
+    default:
+      return "signal " + std::to_string(sig);
+  }
+}
+
+// Raises `attention` (which the integrator polls between steps) when the run must look up
+// from its loop: a stop request, a signal, a checkpoint request, or a checkpoint due by the
+// clock. Polls every 10 ms from a thread of its own.
+class Watcher {
+ public:
+  Watcher(const RunOptions& options, std::atomic<bool>& attention)
+      : options_(options), attention_(attention) {
+    const bool timed = bool(options.checkpoint) && options.checkpoint_every > 0.0;
+    if (!options.stop && !options.control && !timed)
+      return;
+    if (raised())
+      attention_.store(true);  // already set before the run began
+    thread_ = std::jthread([this, timed](std::stop_token token) {
+      auto next = std::chrono::steady_clock::now() +
+                  std::chrono::duration<double>(options_.checkpoint_every);
+      while (!token.stop_requested()) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        bool raise = raised();
+        if (timed && std::chrono::steady_clock::now() >= next) {
+          timer_due_.store(true);
+          next = std::chrono::steady_clock::now() +
+                 std::chrono::duration<double>(options_.checkpoint_every);
+          raise = true;
+        }
+        if (raise)
+          attention_.store(true);
+      }
+    });
+  }
+  bool take_timer() { return timer_due_.exchange(false); }
+
+ private:
+  bool raised() const {
+    return (options_.stop && options_.stop->load()) ||
+           (options_.control &&
+            (options_.control->signal.load() != 0 || options_.control->checkpoint.load()));
+  }
+  const RunOptions& options_;
+  std::atomic<bool>& attention_;
+  std::atomic<bool> timer_due_{false};
+  std::jthread thread_;
+};
+
+}  // namespace
+
+ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOptions& options,
+                          const ReplicaResult* from) {
   ReplicaResult res;
   res.seed = seed;
   const auto wall0 = std::chrono::steady_clock::now();
@@ -330,14 +397,38 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   mo.alpha = spec.alpha;
   mo.skin = spec.skin;
   mo.threads = spec.threads;
-  Model model(initial_state(spec, seed), mo);
+  Model model(from ? from->end.state : initial_state(spec, seed), mo);
   res.kernel = model.force_field().kernel();
   res.kernel_target = model.force_field().target();
   res.threads = model.force_field().threads();
   std::unique_ptr<Integrator> integ = spec.make_integrator();
+  std::atomic<bool> attention{false};
+  integ->set_interrupt(&attention);
   const Ensemble& ens = *spec.ensemble;
+  if (integ->has_solver_history())
+    res.history = "kept";
 
-  const double t_start = model.state().time;
+  double wall_before = 0.0;
+  long long k_first = 1;  // the first sample this call computes
+  if (from) {
+    if (from->series.samples.empty())
+      throw IoError("the checkpoint of replica seed " + std::to_string(seed) + " holds no samples");
+    model.restore(from->end);
+    integ->restore_statistics(from->integrator_stats);
+    res.series = from->series;
+    res.t_start = from->t_start;
+    res.resumes = from->resumes + 1;
+    res.seed = from->seed;
+    wall_before = from->wall_seconds;
+    k_first = static_cast<long long>(from->series.samples.size());
+    if (integ->has_solver_history()) {
+      res.history = (from->history == "kept" ? std::string() : from->history + "; ") +
+                    "fresh after resume at t = " + fmt(model.state().time - from->t_start);
+    }
+  } else {
+    res.t_start = model.state().time;
+  }
+  const double t_start = res.t_start;
   const double t_total = spec.t_eq + spec.t_av;
   const auto k_max = static_cast<long long>(std::floor(t_total / spec.sample_every + 1e-9));
   const long long traj_stride =
@@ -347,12 +438,23 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   std::string traj_path;
   if (traj_stride > 0) {
     traj_path = options.label + ".traj.xyz";
-    traj.open(traj_path + ".part");
+    if (from) {
+      // Frames written after the checkpoint (a run killed later) are dropped.
+      std::error_code ec;
+      std::filesystem::resize_file(traj_path + ".part", std::uintmax_t(from->trajectory_bytes), ec);
+      if (ec)
+        throw IoError("cannot continue trajectory '" + traj_path + ".part': " + ec.message());
+      traj.open(traj_path + ".part", std::ios::app);
+    } else {
+      traj.open(traj_path + ".part");
+    }
     if (!traj)
       throw IoError("cannot write trajectory '" + traj_path + ".part'");
   }
+  res.trajectory_bytes = from ? from->trajectory_bytes : 0;
 
-  Progress progress(options.label, t_total, options.quiet);
+  Progress progress(options.label, t_total, options.quiet,
+                    from ? from->series.samples.back().time : 0.0);
   auto record = [&](double t_rel) {
     const Evaluation& ev = model.evaluate();
     const State& s = model.state();
@@ -360,17 +462,66 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
                                         ev.sigma_xy, ev.forces.energy, ev.dissipation,
                                         ens.piston_dissipation(ev.pressure)});
   };
+  auto elapsed = [&] {
+    return wall_before +
+           std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  };
+  // The replica as it stands, ready to continue.
+  auto fill = [&](ReplicaResult& r) {
+    r.end = model.snapshot();
+    r.final_state = model.state();
+    r.integrator_stats = integ->statistics();
+    r.wall_seconds = elapsed();
+    if (traj_stride > 0) {
+      traj.flush();
+      r.trajectory_bytes = static_cast<std::int64_t>(traj.tellp());
+    }
+  };
+  auto checkpoint = [&] {
+    if (!options.checkpoint)
+      return;
+    const std::string status = res.status;
+    res.status = "running";
+    fill(res);
+    options.checkpoint(res);
+    res.status = status;
+  };
+  Watcher watcher(options, attention);
+  // Looks up from the loop: writes a checkpoint if one is due; true if the run must stop.
+  auto attend = [&]() -> bool {
+    attention.store(false);
+    const int sig = options.control ? options.control->signal.load() : 0;
+    const bool stop = sig != 0 || (options.stop && options.stop->load());
+    const bool asked = options.control && options.control->checkpoint.exchange(false);
+    if (watcher.take_timer() || asked || stop)
+      checkpoint();
+    if (stop) {
+      res.status = "interrupted at t = " + fmt(model.state().time - t_start) +
+                   (sig != 0 ? " by " + signal_name(sig) : std::string());
+      res.signal = sig;
+    }
+    return stop;
+  };
   try {
-    record(0.0);
-    if (traj_stride > 0)
-      write_xyz(traj, model.state());
-    for (long long k = 1; k <= k_max; ++k) {
-      if (options.stop && options.stop->load()) {
-        res.status = "interrupted at t = " + fmt(model.state().time - t_start);
-        break;
-      }
+    if (!from) {
+      record(0.0);
+      if (traj_stride > 0)
+        write_xyz(traj, model.state());
+      checkpoint();  // the .part file exists from the start
+    }
+    bool stopped = false;
+    for (long long k = k_first; k <= k_max && !stopped; ++k) {
       const double t_rel = double(k) * spec.sample_every;
-      integ->advance(model, ens, t_start + t_rel);
+      const double t_end = t_start + t_rel;
+      integ->advance(model, ens, t_end);
+      while (model.state().time < t_end && !stopped) {
+        // Interrupted between steps: attend, then go on to the same sample.
+        stopped = attend();
+        if (!stopped)
+          integ->advance(model, ens, t_end);
+      }
+      if (stopped)
+        break;
       record(t_rel);
       if (traj_stride > 0 && k % traj_stride == 0)
         write_xyz(traj, model.state());
@@ -379,14 +530,15 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
       std::snprintf(extra, sizeof extra, "phi %.5f  P %.3e  sigma_xy %.3e", last.phi, last.pressure,
                     last.sigma_xy);
       progress.update(t_rel, extra);
+      if (attention.load())
+        stopped = attend();
     }
     if (res.status == "complete")
       progress.finish();
   } catch (const IntegrationError& e) {
     res.status = "failed at t = " + fmt(model.state().time - t_start) + ": " + e.what();
   }
-  res.final_state = model.state();
-  res.integrator_stats = integ->statistics();
+  fill(res);
   res.integrator_stats.emplace_back("force_evaluations", double(model.force_evaluations()));
   res.integrator_stats.emplace_back("neighbour_list_builds", double(model.list_builds()));
   if (traj_stride > 0) {
@@ -397,8 +549,7 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   if (res.status == "complete") {
     res.summary = summarize(spec, res.series);
   }
-  res.wall_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  res.wall_seconds = elapsed();
   return res;
 }
 
@@ -470,30 +621,41 @@ void write_replica(H5Writer& w, const RunSpec& spec, const ReplicaResult& r,
 
 }  // namespace
 
-bool write_run_file(const RunSpec& spec, const std::vector<ReplicaResult>& replicas,
-                    const std::string& path) {
-  H5Writer w(path);
+void write_run_layout(H5Writer& w, const RunSpec& spec,
+                      const std::vector<ReplicaResult>& replicas) {
   w.attr("/", "scene", spec.scene_text);
   w.attr("/", "version", JAMFLOW_VERSION);
   w.attr("/", "git_commit", JAMFLOW_GIT_COMMIT);
   w.attr("/", "created", iso_now());
+  std::string status = "complete";
+  std::int64_t resumes = 0;
+  std::string history;
+  for (const auto& r : replicas) {
+    if (r.status != "complete" && status == "complete")
+      status = r.status;
+    resumes += r.resumes;
+    if (r.history != "none" && r.history != "kept")
+      history += (history.empty() ? "" : "; ") + r.history;
+  }
   if (!replicas.empty()) {
     w.attr("/", "kernel", replicas.front().kernel);
     w.attr("/", "kernel_target", replicas.front().kernel_target);
     w.attr("/", "threads", static_cast<std::int64_t>(replicas.front().threads));
+    // "none", "kept", or where an adaptive solver started afresh (a continued run).
+    w.attr("/", "solver_history", history.empty() ? replicas.front().history : history);
   }
   w.attr("/", "replicas", static_cast<std::int64_t>(replicas.size()));
-  std::string failed;
-  for (const auto& r : replicas) {
-    if (r.status != "complete" && failed.empty())
-      failed = r.status;
-  }
-  if (replicas.size() > 1 && failed.empty()) {
+  w.attr("/", "resumes", resumes);
+  w.attr("/", "status", status);
+  if (replicas.empty())
+    return;
+  if (replicas.size() > 1 && status == "complete") {
     // Top level: the first replica's series, final state, integrator counters and wall time
     // (counters need not be additive, e.g. CVODE's atol), the summary of all replicas.
     ReplicaResult all;
     all.integrator_stats = replicas.front().integrator_stats;
     all.wall_seconds = replicas.front().wall_seconds;
+    all.status = replicas.front().status;
     std::vector<Summary> sums;
     double wall = 0.0;
     for (const auto& r : replicas) {
@@ -511,38 +673,61 @@ bool write_run_file(const RunSpec& spec, const std::vector<ReplicaResult>& repli
       write_replica(w, spec, replicas[k], "/replicas/" + std::to_string(k));
     }
   }
-  if (!failed.empty()) {
-    w.keep_partial(failed);
-    return false;
-  }
-  w.commit();
-  return true;
+  write_checkpoint(w, replicas);
 }
 
-int run_and_write(const RunSpec& spec, const RunOptions& options) {
-  std::vector<ReplicaResult> results;
-  const std::string stem = stem_of(spec.file);
-  const auto count = static_cast<std::size_t>(spec.replicas);
-  bool ok = true;
-  for (std::size_t k = 0; k < count && ok; ++k) {
-    RunOptions o = options;
-    o.label = stem + replica_suffix(k, count);
-    results.push_back(run_replica(spec, spec.seed + k, o));
-    ok = results.back().status == "complete";
-    write_xyz_file(o.label + (ok ? ".final.xyz" : ".last.xyz"), results.back().final_state);
+bool write_run_file(const RunSpec& spec, const std::vector<ReplicaResult>& replicas,
+                    const std::string& path) {
+  bool complete = !replicas.empty();
+  for (const auto& r : replicas)
+    complete = complete && r.status == "complete";
+  H5Writer w(complete ? path : path + ".part", ".tmp");
+  write_run_layout(w, spec, replicas);
+  w.commit();
+  return complete;
+}
+
+void check_output(const std::string& file, const OutputOptions& output) {
+  namespace fs = std::filesystem;
+  const auto bad = [&](const std::string& why) {
+    throw ConfigError("[output] file = \"" + file + "\" " + why);
+  };
+  const fs::path p(file);
+  if (file.empty() || !p.has_filename() || p.filename() == "." || p.filename() == "..")
+    bad("is not a file name; allowed a path to an .h5 file, such as \"run.h5\"");
+  std::error_code ec;
+  if (fs::is_directory(p, ec))
+    bad("is a directory; allowed a path to an .h5 file inside it");
+  const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
+  if (!fs::is_directory(dir, ec))
+    bad("is in a directory that does not exist ('" + dir.string() + "'); create it first");
+  // Writable, as the run will find it: a probe file is created and removed.
+  const fs::path probe = dir / (".jamflow-probe-" + std::to_string(::getpid()));
+  {
+    std::ofstream f(probe);
+    if (!f)
+      bad("is in a directory that is not writable ('" + dir.string() + "')");
   }
-  const bool written = write_run_file(spec, results, spec.file);
-  if (!written) {
-    std::fprintf(stderr, "jamflow: %s; data kept in %s.part (not a complete run)\n",
-                 results.back().status.c_str(), spec.file.c_str());
-    return results.back().status.rfind("interrupted", 0) == 0 ? 130 : 1;
-  }
+  fs::remove(probe, ec);
+  if (output.continue_from)
+    return;  // --resume and --extend replace their own files (checked by the caller)
+  if (!output.force && fs::exists(p, ec))
+    bad("exists; pass --force to overwrite it, or --extend it");
+  if (!output.force && fs::exists(file + ".part", ec))
+    bad("has a checkpoint beside it ('" + file + ".part'); continue it with --resume " + file +
+        ".part, or pass --force to start over");
+}
+
+namespace {
+
+void print_summary(const RunSpec& spec, const std::vector<ReplicaResult>& results) {
   std::vector<Summary> sums;
   double wall = 0.0;
   for (const auto& r : results) {
     sums.push_back(r.summary);
     wall += r.wall_seconds;
   }
+  const std::size_t count = results.size();
   const Summary combined = count > 1 ? combine_replicas(sums) : results.front().summary;
   for (const auto& wmsg : combined.warnings)
     std::fprintf(stderr, "warning: %s\n", wmsg.c_str());
@@ -575,6 +760,76 @@ int run_and_write(const RunSpec& spec, const RunOptions& options) {
   std::printf("  energy_balance = %.4f\n", get("energy_balance"));
   std::printf("  tau_sigma_xy   = %.4g\n", get("tau_sigma_xy"));
   std::printf("  wall time      = %.2f s\n", wall);
+}
+
+}  // namespace
+
+int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOptions& output) {
+  check_output(spec.file, output);
+  std::vector<ReplicaResult> results;
+  if (output.continue_from)
+    results = *output.continue_from;
+  const std::string stem = stem_of(spec.file);
+  const auto count = static_cast<std::size_t>(spec.replicas);
+  if (results.size() > count) {
+    throw ConfigError("[run] replicas = " + std::to_string(count) + " but the checkpoint holds " +
+                      std::to_string(results.size()) + "; allowed at least that many");
+  }
+  const auto k_max =
+      static_cast<std::size_t>(std::floor((spec.t_eq + spec.t_av) / spec.sample_every + 1e-9));
+  // The .part file: every replica so far, the current one as it stands.
+  auto write_part = [&](std::size_t k, const ReplicaResult& current) {
+    std::vector<ReplicaResult> all(results.begin(), results.begin() + std::ptrdiff_t(k));
+    all.push_back(current);
+    H5Writer w(spec.file + ".part", ".tmp");
+    write_run_layout(w, spec, all);
+    w.commit();
+  };
+  for (std::size_t k = 0; k < count; ++k) {
+    const ReplicaResult* from = k < results.size() ? &results[k] : nullptr;
+    if (from && from->status.rfind("failed", 0) == 0) {
+      throw ConfigError("replica " + std::to_string(k) + " of this run " + from->status +
+                        "; a failed run cannot be continued");
+    }
+    if (from && from->status == "complete" && from->series.samples.size() > k_max)
+      continue;  // done
+    RunOptions o = options;
+    o.label = stem + replica_suffix(k, count);
+    o.checkpoint_every = spec.checkpoint_every;
+    o.checkpoint = [&, k](const ReplicaResult& current) { write_part(k, current); };
+    ReplicaResult r = run_replica(spec, spec.seed + k, o, from);
+    if (k < results.size())
+      results[k] = std::move(r);
+    else
+      results.push_back(std::move(r));
+    const ReplicaResult& last = results[k];
+    const bool ok = last.status == "complete";
+    write_xyz_file(o.label + (ok ? ".final.xyz" : ".last.xyz"), last.final_state);
+    if (!ok) {
+      write_part(k, last);
+      std::fprintf(stderr, "jamflow: %s; data kept in %s.part (continue it with --resume)\n",
+                   last.status.c_str(), spec.file.c_str());
+      if (last.signal != 0)
+        return 128 + last.signal;
+      return last.status.rfind("interrupted", 0) == 0 ? 130 : 1;
+    }
+    if (k + 1 < count)
+      write_part(k, last);
+  }
+  std::string write_error;
+  try {
+    write_run_file(spec, results, spec.file);
+    std::error_code ec;
+    std::filesystem::remove(spec.file + ".part", ec);
+  } catch (const std::exception& e) {
+    write_error = e.what();
+  }
+  print_summary(spec, results);
+  if (!write_error.empty()) {
+    std::fprintf(stderr, "jamflow: error: %s; the data is kept in %s.part\n", write_error.c_str(),
+                 spec.file.c_str());
+    return 1;
+  }
   return 0;
 }
 

@@ -3,6 +3,7 @@
 #pragma once
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -18,6 +19,8 @@
 #include "lib/statistics.hpp"
 
 namespace jamflow {
+
+class H5Writer;
 
 // The scene a bare `jamflow run` uses (also printed by `jamflow scene`).
 extern const char* const kDefaultScene;
@@ -41,7 +44,8 @@ struct RunSpec {
   int threads = 0;
   // [output]
   std::string file = "jamflow.h5";
-  double trajectory_every = 0.0;  // 0: no trajectory file
+  double trajectory_every = 0.0;    // 0: no trajectory file
+  double checkpoint_every = 600.0;  // seconds of wall time between checkpoints
   // Parts: the ensemble is stateless and shared; integrators keep history and counters, so
   // each replica makes its own from the typed settings.
   std::shared_ptr<const Ensemble> ensemble;
@@ -93,35 +97,82 @@ struct ReplicaResult {
   std::vector<std::pair<std::string, double>> integrator_stats;
   double wall_seconds = 0.0;
   std::uint64_t seed = 0;
-  std::string status = "complete";  // or the failure / interruption message
+  // "complete", "running" (a checkpoint of a run that goes on), "interrupted at t = ..." or
+  // "failed at t = ...".
+  std::string status = "complete";
   // Provenance: the force backend, the instruction-set target it ran on, and the thread count.
   std::string kernel, kernel_target;
   int threads = 1;
+  // To continue the replica (checkpoints, --resume, --extend): the model where it stopped,
+  // the state's time at its start, and the bytes of its trajectory file written so far.
+  Model::Snapshot end;
+  double t_start = 0.0;
+  std::int64_t trajectory_bytes = 0;
+  std::int64_t resumes = 0;  // times continued from a checkpoint
+  // "none" (fixed-step integrators keep no history between steps), "kept", or, for an adaptive
+  // solver continued from a checkpoint, "fresh after resume at t = ...".
+  std::string history = "none";
+  int signal = 0;  // the signal that interrupted it (0: none)
+};
+
+// Set asynchronously (a signal handler) to stop a run or ask for a checkpoint.
+struct RunControl {
+  std::atomic<int> signal{0};           // SIGTERM, SIGINT or SIGHUP: checkpoint and stop
+  std::atomic<bool> checkpoint{false};  // SIGUSR1: checkpoint now and go on
 };
 
 struct RunOptions {
   bool quiet = false;
   std::string label = "run";
   const std::atomic<bool>* stop = nullptr;  // set asynchronously to interrupt
+  RunControl* control = nullptr;
+  // Called with the replica as it stands, ready to continue, when a checkpoint is due: every
+  // checkpoint_every seconds of wall time, on RunControl::checkpoint, before stopping for a
+  // signal, and once at the start. Empty: no checkpoints.
+  std::function<void(const ReplicaResult&)> checkpoint;
+  double checkpoint_every = 600.0;
 };
 
 // Builds the initial state (random or from init), and runs one replica with the given seed.
 // An IntegrationError or an interruption ends the run early: status says why and the series
-// holds everything sampled until then.
-ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOptions& options);
+// holds everything sampled until then. With `from` (a checkpoint of this spec's replica), the
+// replica continues where it stopped: for Euler and RESPA bit for bit as if never stopped.
+// The flags of `options` are polled between integrator steps, so a run stops within about
+// 0.1 s of wall time plus one step.
+ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOptions& options,
+                          const ReplicaResult* from = nullptr);
 
 // Initial state for a spec and seed.
 State initial_state(const RunSpec& spec, std::uint64_t seed);
 
-// Writes the HDF5 layout (see README "Output"). With several replicas, the first is written
-// at the top level and all of them under /replicas/<k>; the top-level /summary then holds
-// combine_replicas() of all of them plus wall_seconds_total (its integrator counters and
-// wall_seconds stay the first replica's). Returns
-// false if any replica failed (then the file is kept as <file>.part with a status attribute).
+// Writes the HDF5 layout (see README "Output") and the replicas' checkpoints (driver/
+// checkpoint.hpp) through `w`. With several replicas, the first is written at the top level
+// and all of them under /replicas/<k>; the top-level /summary then holds combine_replicas() of
+// all of them plus wall_seconds_total (its integrator counters and wall_seconds stay the first
+// replica's). The root attribute "status" is "complete" only when every replica is.
+void write_run_layout(H5Writer& w, const RunSpec& spec, const std::vector<ReplicaResult>& replicas);
+
+// write_run_layout() into `path` (through a temporary file renamed when complete). Returns
+// false if any replica is not complete: then the file is written as <path>.part instead.
 bool write_run_file(const RunSpec& spec, const std::vector<ReplicaResult>& replicas,
                     const std::string& path);
 
-// Runs all replicas of a spec and writes the output. Returns the process exit code.
-int run_and_write(const RunSpec& spec, const RunOptions& options);
+// How run_and_write treats existing files and earlier runs.
+struct OutputOptions {
+  bool force = false;  // overwrite an existing output or checkpoint
+  // Continue these replicas (read from a checkpoint) instead of starting afresh.
+  std::optional<std::vector<ReplicaResult>> continue_from;
+  bool extend = false;  // the output is the finished file being extended: replace it
+};
+
+// The output path is usable before anything is computed: a file name (not empty, ".", or a
+// directory) in an existing, writable directory, not an existing file unless `force`, and
+// no checkpoint of another run beside it. A ConfigError names [output] file and the reason.
+void check_output(const std::string& file, const OutputOptions& output);
+
+// Runs all replicas of a spec (or continues them) and writes the output. Returns the process
+// exit code: 0, 1 for a failed run, 128 + the signal for a run stopped by a signal (130 when
+// interrupted by `stop`).
+int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOptions& output = {});
 
 }  // namespace jamflow

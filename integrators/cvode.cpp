@@ -970,7 +970,7 @@ void Cvode::advance(Model& model, const Ensemble& ensemble, double t_end) {
 
   long steps = 0;
   bool first = true;
-  while (st.time < t_end) {
+  while (st.time < t_end && !interrupted()) {
     if (model.prepare_step())
       im.need_init = true;
     if (first) {
@@ -1043,6 +1043,16 @@ std::vector<std::pair<std::string, double>> Cvode::statistics() const {
   out.emplace_back("reinits", double(im.reinits));
   out.emplace_back("atol", im.atol_len);
   return out;
+}
+
+void Cvode::restore_statistics(const std::vector<std::pair<std::string, double>>& stats) {
+  Impl& im = *impl_;
+  Counters saved;
+  for (int k = 0; k < Counters::kCount; ++k)
+    saved.v[k] = static_cast<long>(statistic(stats, kCounterNames[k]));
+  im.total += saved;
+  im.recoverable_failures += static_cast<long>(statistic(stats, "rhs_recoverable_failures"));
+  im.reinits += static_cast<long>(statistic(stats, "reinits"));
 }
 
 std::unique_ptr<Integrator> make_cvode(ConfigSection& section) {

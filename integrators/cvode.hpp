@@ -177,6 +177,9 @@ class Cvode final : public Integrator {
   void advance(Model& model, const Ensemble& ensemble, double t_end) override;
   void reset() override;
   std::vector<std::pair<std::string, double>> statistics() const override;
+  // The counters continue; the solver's step-size and order history does not.
+  void restore_statistics(const std::vector<std::pair<std::string, double>>& stats) override;
+  bool has_solver_history() const override { return true; }
 
   const CvodeOptions& options() const;
 

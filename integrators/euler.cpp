@@ -14,7 +14,7 @@ Euler::Euler(double dt) : dt_(dt) {
 void Euler::advance(Model& model, const Ensemble& ensemble, double t_end) {
   // The last step is shortened to land exactly on t_end; a remainder below 1e-9 dt is
   // absorbed into the previous step rather than taken as a tiny step.
-  while (model.state().time < t_end) {
+  while (model.state().time < t_end && !interrupted()) {
     model.prepare_step();
     const double t = model.state().time;
     const double h = (t_end - t <= dt_ * (1.0 + 1e-9)) ? t_end - t : dt_;

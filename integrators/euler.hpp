@@ -14,6 +14,9 @@ class Euler final : public Integrator {
   int order() const override { return 1; }
   void advance(Model& model, const Ensemble& ensemble, double t_end) override;
   std::vector<std::pair<std::string, double>> statistics() const override;
+  void restore_statistics(const std::vector<std::pair<std::string, double>>& stats) override {
+    steps_ = static_cast<long long>(statistic(stats, "steps"));
+  }
   double nominal_dt() const override { return dt_; }
 
  private:

@@ -4,6 +4,7 @@
 // The affine shear and dilation are carried by the cell h, so r = h s follows
 //   dr/dt = F / xi_s + gdot y e_x (+ the affine dilation at constant pressure).
 #pragma once
+#include <atomic>
 #include <memory>
 #include <string>
 #include <utility>
@@ -23,17 +24,37 @@ class Integrator {
   // Declared convergence order in the step size (tests measure it).
   virtual int order() const = 0;
 
-  // Advance to exactly t_end (model.state().time == t_end on return).
+  // Advance to exactly t_end (model.state().time == t_end on return), or, once the interrupt
+  // flag is set, stop early at the end of a step (model.state().time < t_end on return).
+  // Calling advance() again with the same t_end then continues as if never stopped: for the
+  // fixed-step integrators, bit for bit.
   virtual void advance(Model& model, const Ensemble& ensemble, double t_end) = 0;
+
+  // A flag, set from another thread or a signal handler, that advance() polls between steps.
+  void set_interrupt(const std::atomic<bool>* flag) { interrupt_ = flag; }
+  bool interrupted() const {
+    return interrupt_ != nullptr && interrupt_->load(std::memory_order_relaxed);
+  }
 
   // Drop any history (after a discrete change such as a remap or a new state).
   virtual void reset() {}
 
   // Counters for the output summary (steps, evaluations, failures, ...).
   virtual std::vector<std::pair<std::string, double>> statistics() const { return {}; }
+  // A continued run (checkpoint) starts from the counters statistics() gave: the counters of
+  // the continued run then count the whole run.
+  virtual void restore_statistics(const std::vector<std::pair<std::string, double>>& stats) {
+    (void)stats;
+  }
+  // Whether the integrator carries history between steps that a checkpoint does not keep
+  // (then a continued run starts with a fresh history, and the output says so).
+  virtual bool has_solver_history() const { return false; }
 
   // A characteristic step for progress reporting and sampling checks (0 if adaptive).
   virtual double nominal_dt() const { return 0.0; }
+
+ private:
+  const std::atomic<bool>* interrupt_ = nullptr;
 };
 
 // Builds the integrator named by [integrator] kind (a registered kind, integrators/registry.hpp),
@@ -47,6 +68,15 @@ std::unique_ptr<Integrator> make_respa(ConfigSection& section);
 std::unique_ptr<Integrator> make_cvode(ConfigSection& section);
 
 // Shared building blocks --------------------------------------------------------------
+
+// The value of counter `name` in statistics() output, or `otherwise`.
+inline double statistic(const std::vector<std::pair<std::string, double>>& stats,
+                        const std::string& name, double otherwise = 0.0) {
+  for (const auto& [k, v] : stats)
+    if (k == name)
+      return v;
+  return otherwise;
+}
 
 // Moves the cell: strain += dstrain and V -> new_volume (affine: scaled coordinates fixed).
 void move_cell(State& state, double dstrain, double new_volume);

@@ -97,7 +97,7 @@ void Respa::advance(Model& model, const Ensemble& ensemble, double t_end) {
   const double dt = options_.dt;
   // As in Euler: the last step is shortened to land exactly on t_end, and a remainder below
   // 1e-9 dt is absorbed into the previous step.
-  while (model.state().time < t_end) {
+  while (model.state().time < t_end && !interrupted()) {
     model.prepare_step();  // no history to drop: every step starts from the state alone
     const double t = model.state().time;
     const double h = (t_end - t <= dt * (1.0 + 1e-9)) ? t_end - t : dt;

@@ -84,6 +84,10 @@ class Respa final : public Integrator {
   int order(const Ensemble& ensemble) const;
   void advance(Model& model, const Ensemble& ensemble, double t_end) override;
   std::vector<std::pair<std::string, double>> statistics() const override;
+  void restore_statistics(const std::vector<std::pair<std::string, double>>& stats) override {
+    steps_ = static_cast<long long>(statistic(stats, "steps"));
+    inner_steps_ = static_cast<long long>(statistic(stats, "inner_steps"));
+  }
   double nominal_dt() const override { return options_.dt; }
   const RespaOptions& options() const { return options_; }
 

@@ -2,9 +2,13 @@
 // the boundary, and turned into a one-line IoError naming the file and the object.
 #include "lib/h5.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <stdexcept>
 #include <utility>
 
 #include "lib/error.hpp"
@@ -159,7 +163,10 @@ herr_t collect_attr(hid_t, const char* name, const H5A_info_t*, void* data) noex
 
 // ---------------------------------------------------------------------------------------------
 
-H5Writer::H5Writer(std::string path) : path_(std::move(path)) {
+H5Writer::H5Writer(std::string path, std::string temp_suffix)
+    : path_(std::move(path)), suffix_(std::move(temp_suffix)) {
+  if (suffix_.empty())
+    throw std::invalid_argument("H5Writer: the temporary suffix must not be empty");
   silence_hdf5();
   const std::string part = part_path();
   file_ = H5Fcreate(part.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
@@ -233,6 +240,14 @@ void H5Writer::dataset(const std::string& path, const std::vector<std::int64_t>&
   if (done_ || file_ < 0)
     throw IoError(part_path() + ": dataset " + quoted(path) + ": file already closed");
   write_dataset(file_, part_path(), path, data, dims, H5T_STD_I64LE, H5T_NATIVE_INT64);
+}
+
+void H5Writer::dataset(const std::string& path, const std::vector<std::uint32_t>& data,
+                       const std::vector<std::size_t>& dims) {
+  silence_hdf5();
+  if (done_ || file_ < 0)
+    throw IoError(part_path() + ": dataset " + quoted(path) + ": file already closed");
+  write_dataset(file_, part_path(), path, data, dims, H5T_STD_U32LE, H5T_NATIVE_UINT32);
 }
 
 void H5Writer::group(const std::string& path) {
@@ -332,6 +347,11 @@ void H5Writer::commit() {
   if (!flushed || !closed)
     throw IoError(part_path() + ": cannot close HDF5 file: " + reason);
   const std::string part = part_path();
+  // On disk before the rename, so that a crash cannot leave a renamed but empty file.
+  if (const int fd = ::open(part.c_str(), O_RDONLY); fd >= 0) {
+    ::fsync(fd);
+    ::close(fd);
+  }
   // The data is complete even if the rename fails; keep it rather than delete it.
   done_ = true;
   if (std::rename(part.c_str(), path_.c_str()) != 0) {
@@ -452,6 +472,18 @@ std::vector<double> H5Reader::read_doubles(const std::string& path) const {
 std::vector<std::int64_t> H5Reader::read_ints(const std::string& path) const {
   silence_hdf5();
   return read_dataset<std::int64_t>(file_, path_, path, H5T_NATIVE_INT64, false);
+}
+
+std::vector<std::uint32_t> H5Reader::read_uint32s(const std::string& path) const {
+  const std::vector<std::int64_t> wide = read_ints(path);
+  std::vector<std::uint32_t> out(wide.size());
+  for (std::size_t k = 0; k < wide.size(); ++k) {
+    if (wide[k] < 0 || wide[k] > std::int64_t(UINT32_MAX))
+      throw IoError(path_ + ": dataset " + quoted(path) + ": value " + std::to_string(wide[k]) +
+                    " at " + std::to_string(k) + " does not fit 32 unsigned bits");
+    out[k] = static_cast<std::uint32_t>(wide[k]);
+  }
+  return out;
 }
 
 std::vector<std::size_t> H5Reader::dims(const std::string& path) const {

@@ -1,7 +1,8 @@
 // Thin RAII layer over the HDF5 C API: what jamflow writes and reads, nothing more.
 //
-// Writing goes to "<path>.part"; commit() closes the file and renames it to <path>, so a run
-// that fails or is interrupted never leaves a file that looks complete.
+// Writing goes to "<path><temp suffix>" (".part" unless given); commit() flushes the file to
+// disk and renames it to <path>, so a crash, a failure or an interruption never leaves a file
+// that looks complete, and never tears the file that was at <path> before.
 #pragma once
 #include <hdf5.h>
 
@@ -13,19 +14,21 @@ namespace jamflow {
 
 class H5Writer {
  public:
-  explicit H5Writer(std::string path);
+  explicit H5Writer(std::string path, std::string temp_suffix = ".part");
   ~H5Writer();
   H5Writer(const H5Writer&) = delete;
   H5Writer& operator=(const H5Writer&) = delete;
 
   const std::string& path() const { return path_; }
-  std::string part_path() const { return path_ + ".part"; }
+  std::string part_path() const { return path_ + suffix_; }
 
   // Creates intermediate groups as needed ("/a/b/c" makes /a and /a/b). dims empty means
   // 1-D of data.size(); otherwise the product of dims must equal data.size() (row-major).
   void dataset(const std::string& path, const std::vector<double>& data,
                const std::vector<std::size_t>& dims = {});
   void dataset(const std::string& path, const std::vector<std::int64_t>& data,
+               const std::vector<std::size_t>& dims = {});
+  void dataset(const std::string& path, const std::vector<std::uint32_t>& data,
                const std::vector<std::size_t>& dims = {});
   void group(const std::string& path);
 
@@ -37,13 +40,13 @@ class H5Writer {
     attr(object, name, std::string(value));
   }
 
-  // Close and atomically rename <path>.part to <path>.
+  // Close, flush to disk (fsync) and atomically rename the temporary file to <path>.
   void commit();
   // Close, keep <path>.part and record why it is incomplete in a root attribute "status".
   void keep_partial(const std::string& status);
 
  private:
-  std::string path_;
+  std::string path_, suffix_;
   hid_t file_ = -1;
   bool done_ = false;
 };
@@ -59,6 +62,8 @@ class H5Reader {
   bool has_attr(const std::string& object, const std::string& name) const;
   std::vector<double> read_doubles(const std::string& path) const;
   std::vector<std::int64_t> read_ints(const std::string& path) const;
+  // Integers that must fit 32 unsigned bits (an IoError otherwise).
+  std::vector<std::uint32_t> read_uint32s(const std::string& path) const;
   std::vector<std::size_t> dims(const std::string& path) const;
   double attr_double(const std::string& object, const std::string& name) const;
   std::int64_t attr_int(const std::string& object, const std::string& name) const;

@@ -4,6 +4,7 @@
 #include <omp.h>
 
 #include <cmath>
+#include <stdexcept>
 #include <string>
 
 #include "lib/error.hpp"
@@ -26,6 +27,39 @@ void Model::reset_state(State state) {
   list_.invalidate();
   changed();
   sorted_once_ = false;
+}
+
+Model::Snapshot Model::snapshot() const {
+  Snapshot s;
+  s.state = state_;
+  s.list = list_.snapshot();
+  s.evaluations = evaluations_;
+  s.builds_at_last_sort = builds_at_last_sort_;
+  s.sorted_once = sorted_once_;
+  s.evaluated = fresh_;
+  s.particle_volume = particle_volume_;
+  return s;
+}
+
+void Model::restore(const Snapshot& s) {
+  if (s.state.size() < 2)
+    throw ConfigError("[system] N must be at least 2");
+  if (s.list.built && s.list.ref_pos.size() != s.state.pos.size())
+    throw std::invalid_argument("model snapshot: the neighbour list is of " +
+                                std::to_string(s.list.ref_pos.size() / 3) +
+                                " particles, the state of " + std::to_string(s.state.size()));
+  state_ = s.state;
+  particle_volume_ = s.particle_volume > 0.0 ? s.particle_volume : state_.particle_volume();
+  list_ = NeighbourList::from(s.list);
+  changed();
+  builds_at_last_sort_ = s.builds_at_last_sort;
+  sorted_once_ = s.sorted_once;
+  if (s.evaluated) {
+    // The original held this state's evaluation; computing it again gives the same bits (the
+    // pass is deterministic), and the count is the original's.
+    evaluate();
+  }
+  evaluations_ = s.evaluations;
 }
 
 void Model::refresh_list(bool renew) {

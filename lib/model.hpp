@@ -75,6 +75,23 @@ class Model {
   // Replace the whole state (restart, replica); drops the neighbour list.
   void reset_state(State state);
 
+  // Everything the model's future depends on, as plain values: the state, the neighbour
+  // lists (which pairs are summed, in which order), when the next reorder is due, and whether
+  // the current state's evaluation was cached. A model restored from it continues bit for bit
+  // as the original would have (the force backend's caches are rebuilt from the state).
+  struct Snapshot {
+    State state;
+    NeighbourList::Snapshot list;
+    std::size_t evaluations = 0, builds_at_last_sort = 0;
+    bool sorted_once = false, evaluated = false;
+    // Summed in the memory order of the first state: summed again in another order, phi
+    // would differ in the last bit.
+    double particle_volume = 0.0;
+  };
+  Snapshot snapshot() const;
+  // Restores a snapshot taken of a model with the same options (alpha, skin, kernel, threads).
+  void restore(const Snapshot& snapshot);
+
   std::size_t list_builds() const { return list_.builds(); }
   std::size_t force_evaluations() const { return evaluations_; }
 

@@ -9,6 +9,7 @@
 #include <limits>
 #include <memory>
 #include <numeric>
+#include <stdexcept>
 #include <string>
 
 #include "lib/error.hpp"
@@ -16,6 +17,12 @@
 namespace jamflow {
 
 namespace {
+
+// Numbers every inner list of the process (lib/kernels caches data derived from one).
+std::uint64_t next_generation() {
+  static std::atomic<std::uint64_t> generations{0};
+  return ++generations;
+}
 
 std::array<std::array<double, 3>, 27> make_shifts() {
   std::array<std::array<double, 3>, 27> s{};
@@ -261,6 +268,15 @@ void NeighbourList::refresh_inner(const State& state, int threads) {
     return m;
   };
   fill_rows(n, threads, inner_start_, inner_entries_, bound, row);
+  set_inner_owner();
+  inner_ref_pos_ = state.pos;
+  inner_h_ref_inv_ = state.box.h_inv();
+  ++inner_builds_;
+  inner_generation_ = next_generation();
+}
+
+void NeighbourList::set_inner_owner() {
+  const std::size_t n = inner_start_.empty() ? 0 : inner_start_.size() - 1;
   inner_owner_.resize(inner_entries_.size());
   max_row_ = 0;
   for (std::size_t i = 0; i < n; ++i) {
@@ -268,11 +284,78 @@ void NeighbourList::refresh_inner(const State& state, int threads) {
               std::uint32_t(i));
     max_row_ = std::max<std::size_t>(max_row_, inner_start_[i + 1] - inner_start_[i]);
   }
-  inner_ref_pos_ = state.pos;
-  inner_h_ref_inv_ = state.box.h_inv();
-  ++inner_builds_;
-  static std::atomic<std::uint64_t> generations{0};
-  inner_generation_ = ++generations;
+}
+
+NeighbourList::Snapshot NeighbourList::snapshot() const {
+  Snapshot s;
+  s.skin = skin_;
+  s.inner_skin = inner_skin_;
+  s.built = built_;
+  s.builds = builds_;
+  s.inner_builds = inner_builds_;
+  s.start = start_;
+  s.entries = entries_;
+  s.inner_start = inner_start_;
+  s.inner_entries = inner_entries_;
+  s.ref_pos = ref_pos_;
+  s.inner_ref_pos = inner_ref_pos_;
+  s.h_ref_inv = h_ref_inv_;
+  s.inner_h_ref_inv = inner_h_ref_inv_;
+  s.a_min = a_min_;
+  s.a_max = a_max_;
+  return s;
+}
+
+namespace {
+
+// A CSR list over n rows whose entries name particles below n.
+void check_rows(const std::vector<std::uint32_t>& start, const std::vector<std::uint32_t>& entries,
+                std::size_t n, const char* what) {
+  const auto bad = [&](const std::string& why) {
+    throw std::invalid_argument(std::string("neighbour list snapshot: ") + what + ": " + why);
+  };
+  if (start.size() != n + 1 || start.front() != 0 || start.back() != entries.size())
+    bad("row starts do not match " + std::to_string(n) + " rows of " +
+        std::to_string(entries.size()) + " entries");
+  for (std::size_t i = 0; i < n; ++i)
+    if (start[i] > start[i + 1])
+      bad("row starts decrease at row " + std::to_string(i));
+  for (std::uint32_t e : entries)
+    if ((e >> NeighbourList::kCodeBits) >= n || (e & NeighbourList::kCodeMask) >= 27)
+      bad("an entry names particle " + std::to_string(e >> NeighbourList::kCodeBits) +
+          " or image " + std::to_string(e & NeighbourList::kCodeMask));
+}
+
+}  // namespace
+
+NeighbourList NeighbourList::from(const Snapshot& s) {
+  NeighbourList l(s.skin);
+  l.inner_skin_ = s.inner_skin;
+  l.built_ = s.built;
+  l.builds_ = s.builds;
+  l.inner_builds_ = s.inner_builds;
+  if (s.built) {
+    const std::size_t n = s.ref_pos.size() / 3;
+    if (s.ref_pos.size() != 3 * n || s.inner_ref_pos.size() != 3 * n)
+      throw std::invalid_argument("neighbour list snapshot: reference positions of " +
+                                  std::to_string(s.ref_pos.size()) + " and " +
+                                  std::to_string(s.inner_ref_pos.size()) + " values");
+    check_rows(s.start, s.entries, n, "outer list");
+    check_rows(s.inner_start, s.inner_entries, n, "inner list");
+    l.start_ = s.start;
+    l.entries_ = s.entries;
+    l.inner_start_ = s.inner_start;
+    l.inner_entries_ = s.inner_entries;
+    l.ref_pos_ = s.ref_pos;
+    l.inner_ref_pos_ = s.inner_ref_pos;
+    l.h_ref_inv_ = s.h_ref_inv;
+    l.inner_h_ref_inv_ = s.inner_h_ref_inv;
+    l.a_min_ = s.a_min;
+    l.a_max_ = s.a_max;
+    l.set_inner_owner();
+    l.inner_generation_ = next_generation();
+  }
+  return l;
 }
 
 void NeighbourList::build_all_pairs(const State& state) {

@@ -92,6 +92,23 @@ class NeighbourList {
   std::size_t pairs() const { return entries_.size(); }
   std::size_t inner_pairs() const { return inner_entries_.size(); }
 
+  // Everything the lists are, as plain values: a checkpoint saves it, and from() gives back a
+  // list that selects, and so sums, exactly the same pairs in the same order.
+  struct Snapshot {
+    double skin = 0.0, inner_skin = 0.0;
+    bool built = false;
+    std::size_t builds = 0, inner_builds = 0;
+    std::vector<std::uint32_t> start, entries, inner_start, inner_entries;
+    std::vector<double> ref_pos, inner_ref_pos;
+    Eigen::Matrix3d h_ref_inv = Eigen::Matrix3d::Identity();
+    Eigen::Matrix3d inner_h_ref_inv = Eigen::Matrix3d::Identity();
+    double a_min = 0.0, a_max = 0.0;
+  };
+  Snapshot snapshot() const;
+  // The list of a snapshot, with a new inner_generation(); a snapshot that is not
+  // self-consistent (row starts, entry codes, sizes) is a std::invalid_argument.
+  static NeighbourList from(const Snapshot& snapshot);
+
   // Permutation that orders particles by cell (memory locality for the pair loop).
   static std::vector<std::uint32_t> cell_order(const State& state, double cell_size);
 
@@ -107,6 +124,7 @@ class NeighbourList {
   bool holds(const Drift& d, double skin, double margin) const;
   // The largest d_max for which holds() is true, given sigma_min.
   double allowed_drift(double sigma_min, double skin, double margin) const;
+  void set_inner_owner();  // inner_owner_ and max_row_ from inner_start_
 
   double skin_, inner_skin_;
   bool built_ = false;

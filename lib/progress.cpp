@@ -17,9 +17,10 @@ std::string format_duration(double seconds) {
   return buf;
 }
 
-Progress::Progress(std::string label, double total, bool quiet)
+Progress::Progress(std::string label, double total, bool quiet, double begin)
     : label_(std::move(label)),
       total_(total),
+      begin_(begin),
       quiet_(quiet),
       tty_(isatty(STDERR_FILENO) != 0),
       start_(std::chrono::steady_clock::now()),
@@ -38,7 +39,8 @@ void Progress::update(double done, const std::string& extra) {
   last_ = now;
   last_fraction_ = fraction;
   const double elapsed = std::chrono::duration<double>(now - start_).count();
-  const double eta = fraction > 0 ? elapsed * (1.0 - fraction) / fraction : NAN;
+  const double here = done - begin_;  // simulation time done by this process
+  const double eta = here > 0 ? elapsed * (total_ - done) / here : NAN;
   std::fprintf(stderr, "%s[%s] t = %.6g / %.6g  %5.1f%%  elapsed %s  ETA %s  %s%s",
                tty_ ? "\r\033[K" : "", label_.c_str(), done, total_, 100.0 * fraction,
                format_duration(elapsed).c_str(), format_duration(eta).c_str(), extra.c_str(),

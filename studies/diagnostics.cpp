@@ -569,8 +569,9 @@ DiagnosedRun execute(const RunRequest& request, const Thresholds& thresholds) {
     stop_watchdog();
     // The engine refused to continue (e.g. a ConfigError "cell too small" after the box
     // collapsed): the run is lost, the study reports the message.
-    d.result = ReplicaResult{};
-    d.result.status = std::string("aborted: ") + e.what();
+    ReplicaResult aborted;
+    aborted.status = std::string("aborted: ") + e.what();
+    d.result = std::move(aborted);
   }
   d.cpu_seconds = thread_cpu_seconds() - cpu0;
   for (const auto& [k, v] : d.result.integrator_stats) {

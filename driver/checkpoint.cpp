@@ -1,0 +1,218 @@
+// Checkpoint layout (driver/checkpoint.hpp): plain datasets and attributes, so that h5py shows
+// what a run will continue from. Doubles are stored as IEEE binary64, so a continued run starts
+// from exactly the bits the interrupted one held.
+#include "driver/checkpoint.hpp"
+
+#include <string>
+
+#include "lib/error.hpp"
+#include "lib/h5.hpp"
+
+namespace jamflow {
+
+namespace {
+
+// The sampled fields, in Sample's order.
+constexpr std::pair<const char*, double Sample::*> kFields[] = {
+    {"time", &Sample::time},
+    {"strain", &Sample::strain},
+    {"volume", &Sample::volume},
+    {"phi", &Sample::phi},
+    {"pressure", &Sample::pressure},
+    {"sigma_xy", &Sample::sigma_xy},
+    {"energy", &Sample::energy},
+    {"dissipation", &Sample::dissipation},
+    {"piston_dissipation", &Sample::piston_dissipation}};
+
+std::vector<double> flat(const Eigen::Matrix3d& m) {
+  std::vector<double> v(9);
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b)
+      v[3 * a + b] = m(a, b);
+  return v;
+}
+
+Eigen::Matrix3d matrix(const std::vector<double>& v, const std::string& what) {
+  if (v.size() != 9)
+    throw IoError(what + " holds " + std::to_string(v.size()) + " values, not 9");
+  Eigen::Matrix3d m;
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b)
+      m(a, b) = v[3 * a + b];
+  return m;
+}
+
+template <class To, class From>
+std::vector<To> convert(const std::vector<From>& v) {
+  return std::vector<To>(v.begin(), v.end());
+}
+
+void write_state(H5Writer& w, const std::string& g, const State& s) {
+  w.dataset(g + "/pos", s.pos);
+  w.dataset(g + "/image", convert<std::int64_t>(s.image));
+  w.dataset(g + "/diameter", s.diameter);
+  w.dataset(g + "/species", convert<std::int64_t>(s.species));
+  w.dataset(g + "/id", s.id);
+  w.attr(g, "lx", s.box.lx);
+  w.attr(g, "ly", s.box.ly);
+  w.attr(g, "lz", s.box.lz);
+  w.attr(g, "strain", s.box.strain);
+  w.attr(g, "flips", s.box.flips);
+  w.attr(g, "time", s.time);
+}
+
+State read_state(const H5Reader& r, const std::string& g) {
+  State s;
+  const std::vector<double> diameter = r.read_doubles(g + "/diameter");
+  const std::size_t n = diameter.size();
+  s.resize(n);
+  s.diameter = diameter;
+  s.pos = r.read_doubles(g + "/pos");
+  const auto image = r.read_ints(g + "/image");
+  const auto species = r.read_ints(g + "/species");
+  s.id = r.read_ints(g + "/id");
+  if (s.pos.size() != 3 * n || image.size() != 3 * n || species.size() != n || s.id.size() != n)
+    throw IoError(g + ": positions, images, species and ids are not all of " + std::to_string(n) +
+                  " particles");
+  for (std::size_t k = 0; k < 3 * n; ++k)
+    s.image[k] = static_cast<std::int32_t>(image[k]);
+  for (std::size_t k = 0; k < n; ++k)
+    s.species[k] = static_cast<std::uint8_t>(species[k]);
+  s.box.lx = r.attr_double(g, "lx");
+  s.box.ly = r.attr_double(g, "ly");
+  s.box.lz = r.attr_double(g, "lz");
+  s.box.strain = r.attr_double(g, "strain");
+  s.box.flips = r.attr_int(g, "flips");
+  s.time = r.attr_double(g, "time");
+  return s;
+}
+
+void write_list(H5Writer& w, const std::string& g, const NeighbourList::Snapshot& l) {
+  w.group(g);
+  w.attr(g, "skin", l.skin);
+  w.attr(g, "inner_skin", l.inner_skin);
+  w.attr(g, "built", std::int64_t(l.built));
+  w.attr(g, "builds", std::int64_t(l.builds));
+  w.attr(g, "inner_builds", std::int64_t(l.inner_builds));
+  w.attr(g, "a_min", l.a_min);
+  w.attr(g, "a_max", l.a_max);
+  if (!l.built)
+    return;
+  w.dataset(g + "/start", l.start);
+  w.dataset(g + "/entries", l.entries);
+  w.dataset(g + "/inner_start", l.inner_start);
+  w.dataset(g + "/inner_entries", l.inner_entries);
+  w.dataset(g + "/ref_pos", l.ref_pos);
+  w.dataset(g + "/inner_ref_pos", l.inner_ref_pos);
+  w.dataset(g + "/h_ref_inv", flat(l.h_ref_inv), {3, 3});
+  w.dataset(g + "/inner_h_ref_inv", flat(l.inner_h_ref_inv), {3, 3});
+}
+
+NeighbourList::Snapshot read_list(const H5Reader& r, const std::string& g) {
+  NeighbourList::Snapshot l;
+  l.skin = r.attr_double(g, "skin");
+  l.inner_skin = r.attr_double(g, "inner_skin");
+  l.built = r.attr_int(g, "built") != 0;
+  l.builds = static_cast<std::size_t>(r.attr_int(g, "builds"));
+  l.inner_builds = static_cast<std::size_t>(r.attr_int(g, "inner_builds"));
+  l.a_min = r.attr_double(g, "a_min");
+  l.a_max = r.attr_double(g, "a_max");
+  if (!l.built)
+    return l;
+  l.start = r.read_uint32s(g + "/start");
+  l.entries = r.read_uint32s(g + "/entries");
+  l.inner_start = r.read_uint32s(g + "/inner_start");
+  l.inner_entries = r.read_uint32s(g + "/inner_entries");
+  l.ref_pos = r.read_doubles(g + "/ref_pos");
+  l.inner_ref_pos = r.read_doubles(g + "/inner_ref_pos");
+  l.h_ref_inv = matrix(r.read_doubles(g + "/h_ref_inv"), g + "/h_ref_inv");
+  l.inner_h_ref_inv = matrix(r.read_doubles(g + "/inner_h_ref_inv"), g + "/inner_h_ref_inv");
+  return l;
+}
+
+}  // namespace
+
+void write_checkpoint(H5Writer& w, const std::vector<ReplicaResult>& replicas) {
+  w.group("/checkpoint");
+  w.attr("/checkpoint", "format", kCheckpointFormat);
+  w.attr("/checkpoint", "replicas", static_cast<std::int64_t>(replicas.size()));
+  for (std::size_t k = 0; k < replicas.size(); ++k) {
+    const ReplicaResult& res = replicas[k];
+    const std::string g = "/checkpoint/replicas/" + std::to_string(k);
+    for (const auto& [name, field] : kFields)
+      w.dataset(g + "/series/" + name, res.series.column(field));
+    w.attr(g, "seed", static_cast<std::int64_t>(res.seed));
+    w.attr(g, "status", res.status);
+    w.attr(g, "wall_seconds", res.wall_seconds);
+    w.attr(g, "trajectory_bytes", res.trajectory_bytes);
+    w.attr(g, "kernel", res.kernel);
+    w.attr(g, "kernel_target", res.kernel_target);
+    w.attr(g, "threads", std::int64_t(res.threads));
+    w.attr(g, "resumes", res.resumes);
+    w.attr(g, "history", res.history);
+    w.group(g + "/integrator");
+    for (const auto& [name, v] : res.integrator_stats)
+      w.attr(g + "/integrator", name, v);
+    const Model::Snapshot& m = res.end;
+    const std::string mg = g + "/model";
+    w.group(mg);
+    w.attr(mg, "evaluations", std::int64_t(m.evaluations));
+    w.attr(mg, "builds_at_last_sort", std::int64_t(m.builds_at_last_sort));
+    w.attr(mg, "sorted_once", std::int64_t(m.sorted_once));
+    w.attr(mg, "evaluated", std::int64_t(m.evaluated));
+    w.attr(mg, "particle_volume", m.particle_volume);
+    write_state(w, mg + "/state", m.state);
+    write_list(w, mg + "/list", m.list);
+  }
+}
+
+std::vector<ReplicaResult> read_checkpoint(const H5Reader& r) {
+  if (!r.exists("/checkpoint"))
+    throw IoError("no /checkpoint group: not a jamflow run file, or written before checkpoints");
+  const std::int64_t format = r.attr_int("/checkpoint", "format");
+  if (format != kCheckpointFormat)
+    throw IoError("/checkpoint format " + std::to_string(format) + "; this jamflow reads " +
+                  std::to_string(kCheckpointFormat));
+  const std::int64_t count = r.attr_int("/checkpoint", "replicas");
+  std::vector<ReplicaResult> out;
+  for (std::int64_t k = 0; k < count; ++k) {
+    const std::string g = "/checkpoint/replicas/" + std::to_string(k);
+    ReplicaResult res;
+    std::vector<std::vector<double>> columns;
+    for (const auto& [name, field] : kFields) {
+      (void)field;
+      columns.push_back(r.read_doubles(g + "/series/" + name));
+      if (columns.back().size() != columns.front().size())
+        throw IoError(g + "/series: columns of different lengths");
+    }
+    res.series.samples.resize(columns.front().size());
+    for (std::size_t c = 0; c < columns.size(); ++c)
+      for (std::size_t s = 0; s < columns[c].size(); ++s)
+        res.series.samples[s].*(kFields[c].second) = columns[c][s];
+    res.seed = static_cast<std::uint64_t>(r.attr_int(g, "seed"));
+    res.status = r.attr_string(g, "status");
+    res.wall_seconds = r.attr_double(g, "wall_seconds");
+    res.trajectory_bytes = r.attr_int(g, "trajectory_bytes");
+    res.kernel = r.attr_string(g, "kernel");
+    res.kernel_target = r.attr_string(g, "kernel_target");
+    res.threads = static_cast<int>(r.attr_int(g, "threads"));
+    res.resumes = r.attr_int(g, "resumes");
+    res.history = r.attr_string(g, "history");
+    for (const auto& name : r.attr_names(g + "/integrator"))
+      res.integrator_stats.emplace_back(name, r.attr_double(g + "/integrator", name));
+    const std::string mg = g + "/model";
+    Model::Snapshot& m = res.end;
+    m.evaluations = static_cast<std::size_t>(r.attr_int(mg, "evaluations"));
+    m.builds_at_last_sort = static_cast<std::size_t>(r.attr_int(mg, "builds_at_last_sort"));
+    m.sorted_once = r.attr_int(mg, "sorted_once") != 0;
+    m.evaluated = r.attr_int(mg, "evaluated") != 0;
+    m.particle_volume = r.attr_double(mg, "particle_volume");
+    m.state = read_state(r, mg + "/state");
+    m.list = read_list(r, mg + "/list");
+    res.final_state = m.state;
+    out.push_back(std::move(res));
+  }
+  return out;
+}
+
+}  // namespace jamflow

@@ -1,0 +1,33 @@
+// Checkpoints: everything a run needs to continue, stored in the run's own HDF5 file under
+// /checkpoint (the .part file while the run goes, the finished file afterwards, so that a
+// finished run can be extended). See README "Checkpoints and restarts".
+//
+//   /checkpoint                      attrs: format, replicas
+//   /checkpoint/replicas/<k>         attrs: seed, status, wall_seconds, trajectory_bytes,
+//                                           kernel, kernel_target, threads, resumes, history
+//     series/<field>                 the samples so far (time, strain, volume, ...)
+//     integrator                     attrs: the integrator's counters
+//     model                          attrs: evaluations, builds_at_last_sort, sorted_once,
+//                                           evaluated, particle_volume
+//     model/state                    pos, image, diameter, species, id; attrs: box, time
+//     model/list                     the neighbour lists (lib/neighbour_list.hpp Snapshot)
+#pragma once
+#include <string>
+#include <vector>
+
+#include "driver/run.hpp"
+
+namespace jamflow {
+
+class H5Writer;
+class H5Reader;
+
+inline constexpr std::int64_t kCheckpointFormat = 1;
+
+// Writes the replicas' checkpoints (finished and running alike) under /checkpoint.
+void write_checkpoint(H5Writer& w, const std::vector<ReplicaResult>& replicas);
+
+// Reads them back; an IoError names what is missing or inconsistent.
+std::vector<ReplicaResult> read_checkpoint(const H5Reader& r);
+
+}  // namespace jamflow

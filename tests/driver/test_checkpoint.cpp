@@ -1,0 +1,404 @@
+// Checkpoints, --resume and --extend: an interrupted and continued run gives the same file, bit
+// for bit, as an uninterrupted one (Euler, RESPA); a torn checkpoint write leaves the previous
+// checkpoint readable; the output path is checked before anything is computed.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "driver/checkpoint.hpp"
+#include "driver/run.hpp"
+#include "lib/error.hpp"
+#include "lib/h5.hpp"
+
+extern char** environ;
+
+namespace jamflow {
+namespace {
+
+namespace fs = std::filesystem;
+
+class TempDir {
+ public:
+  TempDir() {
+    path_ = fs::temp_directory_path() /
+            ("jamflow-ckpt-" + std::to_string(::getpid()) + "-" +
+             ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(path_);
+    fs::create_directories(path_);
+  }
+  ~TempDir() { fs::remove_all(path_); }
+  std::string file(const std::string& name) const { return (path_ / name).string(); }
+
+ private:
+  fs::path path_;
+};
+
+// A small sheared system with Lees-Edwards remaps (strain 1 every ~7 time units at this box)
+// and neighbour-list rebuilds within the run; `ensemble` and `integrator` are TOML sections.
+std::string scene(const std::string& file, const std::string& ensemble,
+                  const std::string& integrator, double t_eq, double t_av) {
+  return "[system]\nN = 150\nphi = 0.62\nseed = 5\n[ensemble]\n" + ensemble +
+         "\n[shear]\nrate = 0.15\n[integrator]\n" + integrator +
+         "\n[run]\nt_eq = " + std::to_string(t_eq) + "\nt_av = " + std::to_string(t_av) +
+         "\nsample_every = 0.5\nblocks = 10\nthreads = 1\n[output]\nfile = \"" + file +
+         "\"\ncheckpoint_every = 0.001\n";
+}
+
+const char* const kVolume = "kind = \"constant_volume\"";
+const char* const kPressure = "kind = \"constant_pressure\"\npressure = 0.01\nxi_V = 0.05";
+const char* const kEuler = "kind = \"euler\"\ndt = 0.05";
+const char* const kRespa = "kind = \"respa\"\ndt = 0.1\nn_inner = 2";
+
+RunSpec spec_of(const std::string& text) {
+  return parse_run_spec(Scene::parse(text, "test.toml"));
+}
+
+// Everything of a finished file that does not depend on the wall clock or on the run having
+// been continued: the series, the final state and every summary value but the wall times.
+void expect_same_run(const std::string& a_path, const std::string& b_path) {
+  H5Reader a(a_path), b(b_path);
+  for (const auto& name : a.children("/timeseries")) {
+    const auto x = a.read_doubles("/timeseries/" + name), y = b.read_doubles("/timeseries/" + name);
+    ASSERT_EQ(x.size(), y.size()) << name;
+    EXPECT_EQ(0, std::memcmp(x.data(), y.data(), x.size() * sizeof(double))) << name;
+  }
+  for (const char* name : {"positions", "diameters", "cell"}) {
+    const auto x = a.read_doubles(std::string("/final/") + name),
+               y = b.read_doubles(std::string("/final/") + name);
+    ASSERT_EQ(x.size(), y.size()) << name;
+    EXPECT_EQ(0, std::memcmp(x.data(), y.data(), x.size() * sizeof(double))) << name;
+  }
+  const auto names = a.attr_names("/summary");
+  EXPECT_EQ(names, b.attr_names("/summary"));
+  for (const auto& name : names) {
+    if (name.rfind("wall_seconds", 0) == 0 || name == "status" || name == "integrator" ||
+        name == "ensemble")
+      continue;
+    const double x = a.attr_double("/summary", name), y = b.attr_double("/summary", name);
+    EXPECT_TRUE(x == y || (std::isnan(x) && std::isnan(y))) << name << ": " << x << " vs " << y;
+  }
+}
+
+int run_quietly(const RunSpec& spec, RunOptions opt, const OutputOptions& out = {}) {
+  opt.quiet = true;
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  try {
+    const int rc = run_and_write(spec, opt, out);
+    testing::internal::GetCapturedStdout();
+    testing::internal::GetCapturedStderr();
+    return rc;
+  } catch (...) {
+    testing::internal::GetCapturedStdout();
+    testing::internal::GetCapturedStderr();
+    throw;
+  }
+}
+
+// Runs the scene to the end through repeated SIGTERMs (set on the run's control from a timer
+// thread after `delay` of wall time) and --resume-style continuations from the .part file.
+// Returns the number of interruptions and the simulated times where they stopped.
+std::vector<double> run_interrupted(const std::string& text, const std::string& file,
+                                    std::chrono::milliseconds delay) {
+  const RunSpec spec = spec_of(text);
+  std::vector<double> stops;
+  OutputOptions out;
+  for (int attempt = 0; attempt < 200; ++attempt) {
+    RunControl control;
+    RunOptions opt;
+    opt.control = &control;
+    opt.label = file.substr(0, file.size() - 3);
+    std::jthread timer([&control, delay](std::stop_token token) {
+      const auto until = std::chrono::steady_clock::now() + delay;
+      while (!token.stop_requested() && std::chrono::steady_clock::now() < until)
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      if (!token.stop_requested())
+        control.signal.store(SIGTERM);
+    });
+    const int rc = run_quietly(spec, opt, out);
+    timer.request_stop();
+    if (rc == 0)
+      return stops;
+    EXPECT_EQ(rc, 128 + SIGTERM);
+    H5Reader part(file + ".part");
+    const std::string status = part.attr_string("/", "status");
+    EXPECT_NE(status.find("by SIGTERM"), std::string::npos) << status;
+    const auto replicas = read_checkpoint(part);
+    stops.push_back(replicas.back().end.state.time);
+    out.continue_from = replicas;
+  }
+  ADD_FAILURE() << "the run did not finish in 200 continuations";
+  return stops;
+}
+
+struct Case {
+  const char* name;
+  const char* ensemble;
+  const char* integrator;
+};
+
+class Resume : public testing::TestWithParam<Case> {};
+
+// Stopped by SIGTERM 15 ms of wall time after every start (the first stop falls in t_eq, which
+// takes most of the run) and continued from the .part file each time: the finished file equals an
+// uninterrupted run's, bit for bit, through remaps, list rebuilds and reorders.
+TEST_P(Resume, SigtermAndContinueGiveTheUninterruptedRunBitForBit) {
+  TempDir dir;
+  const Case c = GetParam();
+  const double t_eq = 100.0, t_av = 50.0;
+  const std::string ref = dir.file("ref.h5"), cut = dir.file("cut.h5");
+  ASSERT_EQ(run_quietly(spec_of(scene(ref, c.ensemble, c.integrator, t_eq, t_av)), {}), 0);
+  const auto stops = run_interrupted(scene(cut, c.ensemble, c.integrator, t_eq, t_av), cut,
+                                     std::chrono::milliseconds(15));
+  ASSERT_TRUE(fs::exists(cut));
+  EXPECT_FALSE(fs::exists(cut + ".part"));
+  ASSERT_GE(stops.size(), 2u) << "the run was hardly interrupted: the machine ran it in < 30 ms";
+  EXPECT_LT(stops.front(), t_eq);
+  // Where it stopped: not on the sampling grid in general (between integrator steps).
+  std::string where;
+  for (double t : stops)
+    where += " " + std::to_string(t);
+  RecordProperty("stops", where);
+  expect_same_run(ref, cut);
+  H5Reader h(cut);
+  EXPECT_EQ(h.attr_int("/", "resumes"), std::int64_t(stops.size()));
+  EXPECT_EQ(h.attr_string("/", "solver_history"), "none");
+  // The remaps and list rebuilds happened: strain 22 over a cell about 5 wide.
+  EXPECT_GT(h.attr_double("/final", "strain"), 10.0);
+  EXPECT_GT(h.attr_double("/summary", "integrator_neighbour_list_builds"), 10.0);
+}
+
+INSTANTIATE_TEST_SUITE_P(EulerAndRespa, Resume,
+                         testing::Values(Case{"euler_NV", kVolume, kEuler},
+                                         Case{"euler_NP", kPressure, kEuler},
+                                         Case{"respa_NV", kVolume, kRespa},
+                                         Case{"respa_NP", kPressure, kRespa}),
+                         [](const auto& info) { return std::string(info.param.name); });
+
+TEST(Resume, ExtendAppendsAndEqualsTheLongerRun) {
+  TempDir dir;
+  const std::string ref = dir.file("long.h5"), ext = dir.file("short.h5");
+  ASSERT_EQ(run_quietly(spec_of(scene(ref, kVolume, kEuler, 10.0, 40.0)), {}), 0);
+  ASSERT_EQ(run_quietly(spec_of(scene(ext, kVolume, kEuler, 10.0, 20.0)), {}), 0);
+  OutputOptions out;
+  {
+    H5Reader h(ext);
+    out.continue_from = read_checkpoint(h);
+  }
+  out.extend = true;
+  Scene longer = Scene::parse(scene(ext, kVolume, kEuler, 10.0, 20.0), "short.toml");
+  longer.set("run.t_av=40.0");
+  ASSERT_EQ(run_quietly(parse_run_spec(longer), {}, out), 0);
+  expect_same_run(ref, ext);
+  H5Reader h(ext);
+  EXPECT_EQ(h.read_doubles("/timeseries/time").size(), 101u);  // t = 0, 0.5, ..., 50
+  EXPECT_NE(h.attr_string("/", "scene").find("t_av = 40"), std::string::npos);
+}
+
+TEST(Resume, CvodeContinuesWithAFreshSolverHistoryAndSaysSo) {
+  TempDir dir;
+  const std::string cut = dir.file("cv.h5");
+  const auto stops =
+      run_interrupted(scene(cut, kVolume, "kind = \"cvode\"\nrtol = 1e-5", 20.0, 20.0), cut,
+                      std::chrono::milliseconds(15));
+  ASSERT_TRUE(fs::exists(cut));
+  H5Reader h(cut);
+  if (stops.empty()) {
+    EXPECT_EQ(h.attr_string("/", "solver_history"), "kept");
+  } else {
+    EXPECT_NE(h.attr_string("/", "solver_history").find("fresh after resume at t = "),
+              std::string::npos)
+        << h.attr_string("/", "solver_history");
+  }
+  EXPECT_EQ(h.read_doubles("/timeseries/time").size(), 81u);
+}
+
+// A write that dies half-way (here: abandoned before its commit) never touches the previous
+// checkpoint: it goes to <file>.part.tmp, renamed only once complete.
+TEST(Checkpoint, TornWriteLeavesThePreviousCheckpointReadable) {
+  TempDir dir;
+  const std::string file = dir.file("torn.h5");
+  RunControl control;
+  control.signal.store(SIGTERM);  // stops at the first step, after the first checkpoint
+  RunOptions opt;
+  opt.control = &control;
+  opt.label = dir.file("torn");
+  const RunSpec spec = spec_of(scene(file, kVolume, kEuler, 5.0, 5.0));
+  ASSERT_EQ(run_quietly(spec, opt), 128 + SIGTERM);
+  const std::string part = file + ".part";
+  ASSERT_TRUE(fs::exists(part));
+  const auto size = fs::file_size(part);
+  {
+    H5Writer torn(part, ".tmp");
+    torn.dataset("/timeseries/time", std::vector<double>(1000, 1.0));
+    // Half-written: the previous checkpoint is still the whole file at `part`.
+    EXPECT_EQ(fs::file_size(part), size);
+    H5Reader still(part);
+    EXPECT_NO_THROW(read_checkpoint(still));
+  }  // destroyed without commit: the temporary file is removed
+  EXPECT_FALSE(fs::exists(part + ".tmp"));
+  // A crash leaves the temporary file behind instead: it is ignored, and the run continues.
+  std::ofstream(part + ".tmp") << "garbage";
+  OutputOptions out;
+  {
+    H5Reader h(part);
+    out.continue_from = read_checkpoint(h);
+  }
+  ASSERT_EQ(run_quietly(spec, {}, out), 0);
+  const std::string ref = dir.file("ref.h5");
+  ASSERT_EQ(run_quietly(spec_of(scene(ref, kVolume, kEuler, 5.0, 5.0)), {}), 0);
+  expect_same_run(ref, file);
+}
+
+std::string output_error(const std::string& file, OutputOptions out = {}) {
+  try {
+    check_output(file, out);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(Checkpoint, OutputIsCheckedBeforeComputing) {
+  TempDir dir;
+  EXPECT_NE(output_error("").find("[output] file = \"\" is not a file name"), std::string::npos);
+  EXPECT_NE(output_error(".").find("is not a file name"), std::string::npos);
+  EXPECT_NE(output_error(dir.file("")).find("is not a file name"), std::string::npos);
+  EXPECT_NE(output_error(dir.file("no/such/dir/x.h5")).find("directory that does not exist"),
+            std::string::npos);
+  fs::create_directories(dir.file("sub"));
+  EXPECT_NE(output_error(dir.file("sub")).find("is a directory"), std::string::npos);
+  std::ofstream(dir.file("old.h5")) << "x";
+  EXPECT_NE(output_error(dir.file("old.h5")).find("exists; pass --force"), std::string::npos);
+  OutputOptions force;
+  force.force = true;
+  EXPECT_EQ(output_error(dir.file("old.h5"), force), "no error");
+  std::ofstream(dir.file("new.h5.part")) << "x";
+  EXPECT_NE(output_error(dir.file("new.h5")).find("--resume"), std::string::npos);
+  if (::geteuid() != 0) {  // root writes into read-only directories
+    fs::create_directories(dir.file("ro"));
+    fs::permissions(dir.file("ro"), fs::perms::owner_read | fs::perms::owner_exec);
+    EXPECT_NE(output_error(dir.file("ro/x.h5")).find("not writable"), std::string::npos);
+    fs::permissions(dir.file("ro"), fs::perms::owner_all);
+  }
+  // run_and_write checks before its first step: nothing is written, nothing computed.
+  const RunSpec spec = spec_of(scene(dir.file("no/such/x.h5"), kVolume, kEuler, 1000.0, 1000.0));
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_THROW(run_quietly(spec, {}), ConfigError);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 5.0);
+}
+
+// ---- The command line: real signals, SIGKILL, exit codes ------------------------------------
+
+struct Child {
+  pid_t pid = -1;
+  int wait() const {
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    if (WIFSIGNALED(status))
+      return 128 + WTERMSIG(status);
+    return WEXITSTATUS(status);
+  }
+};
+
+Child spawn(std::vector<std::string> args) {
+  args.insert(args.begin(), JAMFLOW_CLI);
+  std::vector<char*> argv;
+  for (auto& a : args)
+    argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
+  Child c;
+  EXPECT_EQ(posix_spawn(&c.pid, argv[0], &actions, nullptr, argv.data(), environ), 0);
+  posix_spawn_file_actions_destroy(&actions);
+  return c;
+}
+
+void write_text(const std::string& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
+
+// Waits until `path` exists and has been replaced at least `changes` times (checkpoints).
+void wait_for_checkpoints(const std::string& path, int changes) {
+  fs::file_time_type last{};
+  int seen = 0;
+  for (int k = 0; k < 20000 && seen < changes; ++k) {
+    std::error_code ec;
+    const auto t = fs::last_write_time(path, ec);
+    if (!ec && t != last) {
+      last = t;
+      ++seen;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+
+TEST(ResumeCli, SigkillAfterACheckpointThenResumeGivesTheUninterruptedRun) {
+  TempDir dir;
+  const std::string ref = dir.file("ref.h5"), cut = dir.file("cut.h5");
+  write_text(dir.file("ref.toml"), scene(ref, kPressure, kEuler, 60.0, 60.0));
+  write_text(dir.file("cut.toml"), scene(cut, kPressure, kEuler, 60.0, 60.0));
+  ASSERT_EQ(spawn({"run", dir.file("ref.toml"), "-q"}).wait(), 0);
+  Child c = spawn({"run", dir.file("cut.toml"), "-q"});
+  wait_for_checkpoints(cut + ".part", 3);
+  ::kill(c.pid, SIGKILL);
+  EXPECT_EQ(c.wait(), 128 + SIGKILL);
+  if (fs::exists(cut)) {
+    GTEST_SKIP() << "the run finished before it was killed";
+  }
+  ASSERT_TRUE(fs::exists(cut + ".part"));
+  EXPECT_EQ(spawn({"run", "--resume", cut + ".part", "-q"}).wait(), 0);
+  expect_same_run(ref, cut);
+  EXPECT_FALSE(fs::exists(cut + ".part"));
+}
+
+TEST(ResumeCli, SignalsGiveTheirExitCodesAndUsr1Checkpoints) {
+  TempDir dir;
+  for (int sig : {SIGTERM, SIGINT, SIGHUP}) {
+    const std::string out = dir.file("s" + std::to_string(sig) + ".h5");
+    write_text(dir.file("s.toml"), scene(out, kVolume, kEuler, 1e4, 1e4));
+    Child c = spawn({"run", dir.file("s.toml"), "-q"});
+    wait_for_checkpoints(out + ".part", 1);
+    const auto t0 = std::chrono::steady_clock::now();
+    ::kill(c.pid, sig);
+    EXPECT_EQ(c.wait(), 128 + sig) << sig;
+    // Stopped within a second, with a checkpoint that says why.
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0);
+    H5Reader h(out + ".part");
+    EXPECT_NE(h.attr_string("/", "status").find("interrupted at t = "), std::string::npos);
+  }
+  // SIGUSR1: a checkpoint, and the run goes on to the end.
+  const std::string out = dir.file("usr1.h5");
+  write_text(dir.file("u.toml"), scene(out, kVolume, kEuler, 20.0, 20.0) +
+                                     "");  // checkpoint_every is tiny: the signal adds one
+  Child c = spawn({"run", dir.file("u.toml"), "-q"});
+  wait_for_checkpoints(out + ".part", 1);
+  ::kill(c.pid, SIGUSR1);
+  EXPECT_EQ(c.wait(), 0);
+  EXPECT_TRUE(fs::exists(out));
+}
+
+TEST(ResumeCli, ExistingOutputNeedsForce) {
+  TempDir dir;
+  const std::string out = dir.file("o.h5");
+  write_text(dir.file("o.toml"), scene(out, kVolume, kEuler, 1.0, 5.0));
+  ASSERT_EQ(spawn({"run", dir.file("o.toml"), "-q"}).wait(), 0);
+  EXPECT_EQ(spawn({"run", dir.file("o.toml"), "-q"}).wait(), 2);
+  EXPECT_EQ(spawn({"run", dir.file("o.toml"), "-q", "--force"}).wait(), 0);
+}
+
+}  // namespace
+}  // namespace jamflow
