@@ -42,7 +42,7 @@ int run_command(const std::vector<std::string>& args) {
   CLI::App app{"Run one state point described by a scene (TOML).", "jamflow run"};
   std::string scene_path, out_path, resume_path, extend_path;
   std::vector<std::string> sets;
-  bool quiet = false, force = false;
+  bool quiet = false, force = false, strict = false;
   int threads = -1;
   int replicas = 0;
   app.add_option("scene", scene_path, "scene file (TOML); omitted: the embedded default scene");
@@ -59,6 +59,8 @@ int run_command(const std::vector<std::string>& args) {
   app.add_option("--extend", extend_path,
                  "lengthen a finished run OUT.h5: --set run.t_av=T appends to its series");
   app.add_flag("--force", force, "overwrite an existing output or checkpoint");
+  app.add_flag("--strict", strict,
+               "exit with status 3 when a verdict (steady, stable, decorrelated) fails");
   app.add_flag("-q,--quiet", quiet, "no progress line");
   std::vector<std::string> rev(args.rbegin(), args.rend());
   try {
@@ -68,6 +70,7 @@ int run_command(const std::vector<std::string>& args) {
   }
   jamflow::OutputOptions output;
   output.force = force;
+  output.strict = strict;
   jamflow::Scene scene = jamflow::Scene::parse(jamflow::kDefaultScene, "<default scene>");
   if (!resume_path.empty() || !extend_path.empty()) {
     if (!resume_path.empty() && !extend_path.empty())

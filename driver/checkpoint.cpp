@@ -150,6 +150,10 @@ void write_checkpoint(H5Writer& w, const std::vector<ReplicaResult>& replicas) {
     w.attr(g, "threads", std::int64_t(res.threads));
     w.attr(g, "resumes", res.resumes);
     w.attr(g, "history", res.history);
+    w.attr(g, "t_start", res.t_start);
+    w.attr(g, "step_cross", res.steps.cross);
+    w.attr(g, "step_norm", res.steps.norm);
+    w.attr(g, "step_pairs", res.steps.pairs);
     w.group(g + "/integrator");
     for (const auto& [name, v] : res.integrator_stats)
       w.attr(g + "/integrator", name, v);
@@ -198,6 +202,10 @@ std::vector<ReplicaResult> read_checkpoint(const H5Reader& r) {
     res.threads = static_cast<int>(r.attr_int(g, "threads"));
     res.resumes = r.attr_int(g, "resumes");
     res.history = r.attr_string(g, "history");
+    res.t_start = r.attr_double(g, "t_start");
+    res.steps.cross = r.attr_double(g, "step_cross");
+    res.steps.norm = r.attr_double(g, "step_norm");
+    res.steps.pairs = r.attr_int(g, "step_pairs");
     for (const auto& name : r.attr_names(g + "/integrator"))
       res.integrator_stats.emplace_back(name, r.attr_double(g + "/integrator", name));
     const std::string mg = g + "/model";

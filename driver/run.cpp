@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "driver/checkpoint.hpp"
+#include "driver/verdicts.hpp"
 #include "integrators/registry.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
@@ -78,6 +79,27 @@ std::string iso_now() {
   char buf[64];
   std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
   return buf;
+}
+
+// Limits a scene is checked against before it runs (README "Limits").
+constexpr double kMaxSteps = 1e12;
+constexpr double kMaxParticleSteps = 1e15;  // about 230 days at 20 ns per particle-step
+constexpr double kMaxSamples = 1e9;
+constexpr double kBytesPerSample = 3.0 * sizeof(Sample);  // the series, its copies at output
+// Measured: the peak resident size grows by 740 bytes per particle from N = 1e5 to 4e5 (lists,
+// checkpoint copies and output included); rounded up for margin.
+constexpr double kBytesPerParticle = 1000.0;
+
+// A number for a one-line message: 6 significant digits.
+std::string short_num(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6g", v);
+  return text;
+}
+
+double physical_memory_bytes() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), size = ::sysconf(_SC_PAGE_SIZE);
+  return pages > 0 && size > 0 ? double(pages) * double(size) : 0.0;
 }
 
 }  // namespace
@@ -159,7 +181,58 @@ RunSpec parse_run_spec(const Scene& scene) {
   // One thread unless asked: runs side by side (studies, sweeps, several users) then never
   // compete for cores; see README "Threads".
   spec.threads = static_cast<int>(run.integer("threads", 1, 0, 1024));
+  const bool round_sampling = run.flag("round_sample_every", false);
   run.finish();
+  // dt is never changed: sampling lands on whole steps, or (asked for) sample_every is rounded
+  // to the nearest whole number of steps, and the stored scene says so.
+  if (const double dt = spec.make_integrator()->nominal_dt(); dt > 0.0) {
+    const double ratio = spec.sample_every / dt;
+    const double whole = std::max(1.0, std::round(ratio));
+    if (std::abs(ratio - whole) > 1e-9 * whole) {
+      if (!round_sampling) {
+        throw ConfigError("[run] sample_every = " + fmt(spec.sample_every) +
+                          " is not a whole number of [integrator] dt = " + fmt(dt) + " (" +
+                          short_num(ratio) + " steps); allowed multiples of dt, such as " +
+                          short_num(whole * dt) + ", or set [run] round_sample_every = true");
+      }
+      spec.sample_every = whole * dt;
+      Scene rounded = scene;
+      char text[64];
+      std::snprintf(text, sizeof text, "run.sample_every=%.17g", spec.sample_every);
+      rounded.set(text);
+      spec.scene_text = rounded.text();
+    }
+    // Steps up front: a run that cannot end is refused before it starts.
+    const double steps = (spec.t_eq + spec.t_av) / dt;
+    if (!(steps <= kMaxSteps)) {
+      throw ConfigError("[integrator] dt = " + fmt(dt) + " makes " + short_num(steps) +
+                        " steps of (t_eq + t_av) = " + fmt(spec.t_eq + spec.t_av) +
+                        "; allowed at most " + fmt(kMaxSteps) + " steps per replica");
+    }
+    if (!(steps * double(spec.n) <= kMaxParticleSteps)) {
+      throw ConfigError("[system] N = " + std::to_string(spec.n) + " for " + short_num(steps) +
+                        " steps is " + short_num(steps * double(spec.n)) +
+                        " particle-steps (about " +
+                        fmt(std::round(steps * double(spec.n) * 20e-9 / 86400.0)) +
+                        " days on one core); allowed at most " + fmt(kMaxParticleSteps));
+    }
+  }
+  // Memory up front: the samples and the particles (measured per particle, with the
+  // checkpoint's copy) against what the machine has.
+  {
+    const double samples = (spec.t_eq + spec.t_av) / spec.sample_every + 1.0;
+    const double bytes = samples * kBytesPerSample + double(spec.n) * kBytesPerParticle;
+    const double have = physical_memory_bytes();
+    if (!(samples <= kMaxSamples) || (have > 0.0 && !(bytes <= have))) {
+      char text[320];
+      std::snprintf(text, sizeof text,
+                    "[run] (t_eq + t_av) / sample_every = %.3g samples and [system] N = %lld "
+                    "need about %.3g GB of memory; this machine has %.3g GB (allowed at most "
+                    "%.3g samples)",
+                    samples, (long long)spec.n, bytes / 1e9, have / 1e9, kMaxSamples);
+      throw ConfigError(text);
+    }
+  }
   const double window_samples = std::floor(spec.t_av / spec.sample_every + 1e-9);
   if (window_samples < double(spec.blocks)) {
     throw ConfigError("[run] t_av / sample_every = " + fmt(window_samples) +
@@ -190,7 +263,14 @@ std::vector<double> Series::column(double Sample::*field) const {
   return v;
 }
 
-Summary summarize(const RunSpec& spec, const Series& series) {
+bool Summary::failed() const {
+  for (const auto& [name, text] : verdicts)
+    if (text.rfind("fail", 0) == 0)
+      return true;
+  return false;
+}
+
+Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* steps) {
   Summary sum;
   auto& out = sum.values;
   std::vector<Sample> win;
@@ -263,20 +343,97 @@ Summary summarize(const RunSpec& spec, const Series& series) {
   // at constant volume) has tau = half a sample and never warns.
   const std::pair<const char*, const std::vector<double>*> correlated[] = {
       {"sigma_xy", &sigma}, {"pressure", &press}, {"phi", &phi}};
+  const VerdictThresholds limits;
+  std::string too_short;
   for (const auto& [name, series_ptr] : correlated) {
     const double tau = integrated_autocorrelation(*series_ptr) * spec.sample_every;
     out[std::string("tau_") + name] = tau;
-    if (out["block_length"] < 2.0 * tau) {
-      // How much too small, for correlations that decay exponentially (more if slower).
+    if (out["block_length"] < limits.decorrelation_blocks * tau && too_short.empty()) {
+      // How much too small the block errors are, for correlations that decay exponentially
+      // (more if slower).
       const double low = 1.0 - block_error_ratio(out["block_length"], tau);
-      char text[160];
-      std::snprintf(text, sizeof text, " (tau = %.3g); block errors are about %.0f%% too small",
-                    tau, 100.0 * low);
-      sum.warnings.push_back("block length " + fmt(out["block_length"]) +
-                             " is shorter than 2 autocorrelation times of " + name + text +
-                             " (more if the correlations decay slower than exponentially): "
-                             "lengthen t_av");
+      char text[240];
+      std::snprintf(text, sizeof text,
+                    "blocks of %.4g are shorter than %g tau_%s = %.4g, so block errors are "
+                    "about %.0f%% too small (more if correlations decay slower than "
+                    "exponentially)",
+                    out["block_length"], limits.decorrelation_blocks, name,
+                    limits.decorrelation_blocks * tau, 100.0 * low);
+      too_short = text;
     }
+  }
+  auto verdict = [&](const std::string& name, bool pass, const std::string& why) {
+    sum.verdicts[name] = pass ? "pass" : "fail: " + why;
+    out[name] = pass ? 1.0 : 0.0;
+  };
+  // decorrelated: every block at least 2 tau long.
+  verdict("decorrelated", too_short.empty(), too_short + "; lengthen t_av");
+
+  // steady: no significant trend of the block means.
+  std::string drift;
+  double worst = 0.0;
+  for (const auto& [name, b] : {std::pair<const char*, const BlockAverage*>{"phi", &bphi},
+                                {"sigma_xy", &bs},
+                                {"pressure", &bp}}) {
+    const double t = trend_t(b->blocks);
+    out[std::string("trend_t_") + name] = t;
+    if (std::abs(t) > worst || !std::isfinite(t)) {
+      worst = std::isfinite(t) ? std::abs(t) : std::numeric_limits<double>::infinity();
+      if (!(std::abs(t) <= limits.trend_t_max)) {
+        char text[200];
+        std::snprintf(text, sizeof text,
+                      "%s drifts from %.6g (first block) to %.6g (last), trend t = %.3g over "
+                      "%zu blocks (allowed |t| <= %g)",
+                      name, b->blocks.front(), b->blocks.back(), t, nb, limits.trend_t_max);
+        drift = text;
+      }
+    }
+  }
+  verdict("steady", drift.empty(), drift + "; lengthen t_eq");
+
+  // stable: energy balance and no step-to-step oscillation of the forces.
+  const EnergyBalance eb = energy_balance(series.samples, spec.t_eq, gdot, imposed, nb);
+  out["energy_balance_corrected"] = eb.ratio;
+  out["energy_balance_err"] = eb.error;
+  std::string unstable, unchecked;
+  if (eb.valid) {
+    const double allowed = std::max(limits.balance_tolerance, limits.balance_sigmas * eb.error);
+    if (eb.residual > allowed) {
+      char text[200];
+      std::snprintf(text, sizeof text,
+                    "energy balance %.4g +- %.2g (work / dissipation, enthalpy drift removed); "
+                    "allowed within %.3g of 1",
+                    eb.ratio, eb.error, allowed);
+      unstable = text;
+    }
+  } else {
+    unchecked = gdot > 0.0 ? "energy balance not available" : "no shear: no energy balance";
+  }
+  if (steps && steps->pairs > 0) {
+    out["force_step_correlation"] = steps->correlation();
+    if (!(steps->correlation() >= limits.force_correlation_min) && unstable.empty()) {
+      char text[200];
+      std::snprintf(text, sizeof text,
+                    "forces at consecutive steps correlate %.3g (period-2 share of the force "
+                    "power %.1f%%); allowed >= %g: lower dt",
+                    steps->correlation(), 50.0 * (1.0 - steps->correlation()),
+                    limits.force_correlation_min);
+      unstable = text;
+    }
+  } else if (!unchecked.empty()) {
+    unchecked += "; adaptive integrator: no step-to-step test";
+  }
+  if (!unstable.empty()) {
+    verdict("stable", false, unstable);
+  } else if (!unchecked.empty() && !(steps && steps->pairs > 0)) {
+    sum.verdicts["stable"] = "not checked: " + unchecked;
+    out["stable"] = std::numeric_limits<double>::quiet_NaN();
+  } else {
+    verdict("stable", true, "");
+  }
+  for (const auto& [name, text] : sum.verdicts) {
+    if (text.rfind("fail", 0) == 0)
+      sum.warnings.push_back("not " + name + ": " + text.substr(6));
   }
   return sum;
 }
@@ -315,6 +472,27 @@ Summary combine_replicas(const std::vector<Summary>& summaries) {
     }
   }
   out.values["replicas"] = double(k);
+  // A verdict of the replicas passes only if it passes for each of them.
+  for (const auto& [name, text] : summaries.front().verdicts) {
+    (void)text;
+    std::string combined = "pass";
+    double value = 1.0;
+    for (std::size_t r = 0; r < k; ++r) {
+      const auto it = summaries[r].verdicts.find(name);
+      const std::string v = it == summaries[r].verdicts.end() ? "not checked" : it->second;
+      if (v.rfind("fail", 0) == 0) {
+        combined = "fail: replica " + std::to_string(r) + ": " + v.substr(6);
+        value = 0.0;
+        break;
+      }
+      if (v != "pass" && combined == "pass") {
+        combined = v;
+        value = std::numeric_limits<double>::quiet_NaN();
+      }
+    }
+    out.verdicts[name] = combined;
+    out.values[name] = value;
+  }
   for (std::size_t r = 0; r < k; ++r) {
     for (const auto& w : summaries[r].warnings)
       out.warnings.push_back("replica " + std::to_string(r) + ": " + w);
@@ -502,6 +680,11 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
     }
     return stop;
   };
+  // The step-to-step oscillation test (fixed-step integrators).
+  const bool step_test = integ->nominal_dt() > 0.0;
+  std::vector<double> before;
+  if (from)
+    res.steps = from->steps;
   try {
     if (!from) {
       record(0.0);
@@ -522,7 +705,24 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
       }
       if (stopped)
         break;
-      record(t_rel);
+      if (step_test && t_rel > spec.t_eq + 1e-9 * spec.sample_every) {
+        // The forces of the step before this sample, and of the sample itself.
+        before = model.last_evaluation().forces.force;
+        record(t_rel);
+        const std::vector<double>& now = model.last_evaluation().forces.force;
+        if (before.size() == now.size()) {
+          double cross = 0.0, norm = 0.0;
+          for (std::size_t i = 0; i < now.size(); ++i) {
+            cross += before[i] * now[i];
+            norm += 0.5 * (before[i] * before[i] + now[i] * now[i]);
+          }
+          res.steps.cross += cross;
+          res.steps.norm += norm;
+          ++res.steps.pairs;
+        }
+      } else {
+        record(t_rel);
+      }
       if (traj_stride > 0 && k % traj_stride == 0)
         write_xyz(traj, model.state());
       const Sample& last = res.series.samples.back();
@@ -547,7 +747,7 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
       std::filesystem::rename(traj_path + ".part", traj_path);
   }
   if (res.status == "complete") {
-    res.summary = summarize(spec, res.series);
+    res.summary = summarize(spec, res.series, step_test ? &res.steps : nullptr);
   }
   res.wall_seconds = elapsed();
   return res;
@@ -609,6 +809,8 @@ void write_replica(H5Writer& w, const RunSpec& spec, const ReplicaResult& r,
   const ReplicaResult& src = summary ? *summary : r;
   for (const auto& [k, v] : src.summary.values)
     w.attr(sm, k, v);
+  for (const auto& [k, v] : src.summary.verdicts)
+    w.attr(sm, "verdict_" + k, v);
   w.attr(sm, "N", static_cast<std::int64_t>(n));
   w.attr(sm, "alpha", spec.alpha);
   spec.ensemble->describe(w, sm);
@@ -720,7 +922,8 @@ void check_output(const std::string& file, const OutputOptions& output) {
 
 namespace {
 
-void print_summary(const RunSpec& spec, const std::vector<ReplicaResult>& results) {
+// Prints the summary; returns whether a verdict failed.
+bool print_summary(const RunSpec& spec, const std::vector<ReplicaResult>& results) {
   std::vector<Summary> sums;
   double wall = 0.0;
   for (const auto& r : results) {
@@ -759,7 +962,10 @@ void print_summary(const RunSpec& spec, const std::vector<ReplicaResult>& result
   std::printf("  J              = %.6e\n", get("J"));
   std::printf("  energy_balance = %.4f\n", get("energy_balance"));
   std::printf("  tau_sigma_xy   = %.4g\n", get("tau_sigma_xy"));
+  for (const auto& [name, text] : combined.verdicts)
+    std::printf("  %-14s = %s\n", name.c_str(), text.c_str());
   std::printf("  wall time      = %.2f s\n", wall);
+  return combined.failed();
 }
 
 }  // namespace
@@ -824,11 +1030,15 @@ int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOp
   } catch (const std::exception& e) {
     write_error = e.what();
   }
-  print_summary(spec, results);
+  const bool failed_verdict = print_summary(spec, results);
   if (!write_error.empty()) {
     std::fprintf(stderr, "jamflow: error: %s; the data is kept in %s.part\n", write_error.c_str(),
                  spec.file.c_str());
     return 1;
+  }
+  if (failed_verdict && output.strict) {
+    std::fprintf(stderr, "jamflow: a verdict failed and --strict was given\n");
+    return 3;
   }
   return 0;
 }

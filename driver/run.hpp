@@ -76,12 +76,26 @@ struct Series {
 struct Summary {
   std::map<std::string, double> values;  // name -> value (see write_summary for the names)
   std::vector<std::string> warnings;
+  // The verdicts (driver/verdicts.hpp): "steady", "stable", "decorrelated" -> "pass", or
+  // "fail: <why>", or "not checked: <why>". values[name] is 1 for pass, 0 for fail, NaN else.
+  std::map<std::string, std::string> verdicts;
+  bool failed() const;  // any verdict failed
+};
+
+// Forces at consecutive integrator steps, at each sample of the averaging window: sum of
+// F(t - dt) . F(t) and of (|F(t - dt)|^2 + |F(t)|^2) / 2 (the stable verdict's oscillation test).
+struct StepPairs {
+  double cross = 0.0, norm = 0.0;
+  std::int64_t pairs = 0;
+  double correlation() const { return norm > 0.0 ? cross / norm : 1.0; }
 };
 
 // Block-averaged observables over the window t >= t_eq, with the integrated autocorrelation
 // times tau_sigma_xy, tau_pressure, tau_phi (time units) and a warning for each that is longer
 // than half a block.
-Summary summarize(const RunSpec& spec, const Series& series);
+// With `steps` (fixed-step integrators), the stable verdict also tests for step-to-step
+// oscillation.
+Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* steps = nullptr);
 
 // The summary of K independent replicas: every value is the mean over replicas; each `<name>_err`
 // is the block error propagated to that mean, sqrt(sum_k err_k^2) / K; each observable with an
@@ -109,6 +123,7 @@ struct ReplicaResult {
   double t_start = 0.0;
   std::int64_t trajectory_bytes = 0;
   std::int64_t resumes = 0;  // times continued from a checkpoint
+  StepPairs steps;           // what the oscillation test has seen so far
   // "none" (fixed-step integrators keep no history between steps), "kept", or, for an adaptive
   // solver continued from a checkpoint, "fresh after resume at t = ...".
   std::string history = "none";
@@ -163,6 +178,7 @@ struct OutputOptions {
   // Continue these replicas (read from a checkpoint) instead of starting afresh.
   std::optional<std::vector<ReplicaResult>> continue_from;
   bool extend = false;  // the output is the finished file being extended: replace it
+  bool strict = false;  // a failed verdict is exit status 3
 };
 
 // The output path is usable before anything is computed: a file name (not empty, ".", or a
@@ -171,8 +187,8 @@ struct OutputOptions {
 void check_output(const std::string& file, const OutputOptions& output);
 
 // Runs all replicas of a spec (or continues them) and writes the output. Returns the process
-// exit code: 0, 1 for a failed run, 128 + the signal for a run stopped by a signal (130 when
-// interrupted by `stop`).
+// exit code: 0, 1 for a failed run, 3 for a failed verdict with `strict`, 128 + the signal for
+// a run stopped by a signal (130 when interrupted by `stop`).
 int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOptions& output = {});
 
 }  // namespace jamflow

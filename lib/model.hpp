@@ -63,6 +63,9 @@ class Model {
     changed();
     return std::forward<F>(f)(state_);
   }
+  // The last force pass, whatever configuration it was of (after an integrator step: the
+  // configuration before the step). evaluate() gives the current configuration's.
+  const Evaluation& last_evaluation() const { return eval_; }
   // The number of the current state (lib/kernels/backend.hpp): new after every change.
   std::uint64_t version() const { return version_; }
   // The clock alone (no force depends on it): keeps the cached evaluation.

@@ -36,16 +36,24 @@ std::array<std::array<double, 3>, 27> make_shifts() {
 }
 
 // Bins per scaled direction so that a sphere of radius `reach` spans at most one bin on each
-// side. The widths are evaluated at |tilt| = 1/2, the most skewed cell between remaps.
-Eigen::Vector3i bins_for(const Box& box, double reach) {
+// side. The widths are evaluated at |tilt| = 1/2, the most skewed cell between remaps. A dilute
+// cell (phi = 1e-9 asks for 1e11 bins of reach) gets fewer, wider bins: at most 2 n + 27, which
+// keeps the grid's memory proportional to the particles and its indices within 32 bits.
+Eigen::Vector3i bins_for(const Box& box, double reach, std::size_t n) {
   Box worst = box;
   worst.flips = 0;
   worst.strain = 0.5 * box.lx / box.ly;
   const Eigen::Vector3d w = worst.perpendicular_widths();
-  Eigen::Vector3i n;
+  Eigen::Vector3d fit;
   for (int d = 0; d < 3; ++d)
-    n[d] = std::max(1, static_cast<int>(std::floor(w[d] / reach)));
-  return n;
+    fit[d] = std::max(1.0, std::floor(std::min(w[d] / reach, 1e9)));
+  const double cap = 2.0 * double(n) + 27.0;
+  if (fit.prod() > cap) {
+    const double shrink = std::cbrt(fit.prod() / cap);
+    for (int d = 0; d < 3; ++d)
+      fit[d] = std::max(1.0, std::floor(fit[d] / shrink));
+  }
+  return fit.cast<int>();
 }
 
 // Fills a CSR list row by row: row(i, dst) writes the entries of row i to dst, at most
@@ -149,7 +157,7 @@ void NeighbourList::build(const State& state, int threads) {
     }
   }
 
-  const Eigen::Vector3i nb = bins_for(state.box, reach);
+  const Eigen::Vector3i nb = bins_for(state.box, reach, n);
   start_.assign(n + 1, 0);
   entries_.clear();
   entries_.reserve(n * 8);
@@ -452,7 +460,7 @@ NeighbourList::Status NeighbourList::status(const State& state, int threads) con
 
 std::vector<std::uint32_t> NeighbourList::cell_order(const State& state, double cell_size) {
   const std::size_t n = state.size();
-  const Eigen::Vector3i nb = bins_for(state.box, cell_size);
+  const Eigen::Vector3i nb = bins_for(state.box, cell_size, n);
   std::vector<std::uint64_t> key(n);
   for (std::size_t i = 0; i < n; ++i) {
     const auto c = [&](double s, int m) {

@@ -1,8 +1,9 @@
 // Shared stability and accuracy diagnostics for the methodology studies (timestep, stability,
-// softness): the energy-balance residual (SPEC §3-4), a step-to-step (period-2) oscillation
-// detector, a lane order parameter (the seed's N = 100 lanes, sec. "Model and numerical
-// methods"), and a diagnosed run that classifies a run as stable / oscillating / diverged.
-// Criteria and thresholds are documented in studies/stability/README.md.
+// softness), on top of the verdicts every run gets (driver/verdicts.hpp: the energy-balance
+// residual, SPEC §3-4, and the step-to-step oscillation detector): a lane order parameter (the
+// seed's N = 100 lanes, sec. "Model and numerical methods"), and a diagnosed run that classifies a
+// run as stable / oscillating / diverged. Criteria and thresholds are documented in
+// studies/stability/README.md.
 #pragma once
 #include <cstdint>
 #include <optional>
@@ -10,6 +11,7 @@
 #include <vector>
 
 #include "driver/run.hpp"
+#include "driver/verdicts.hpp"
 #include "studies/study.hpp"
 
 namespace jamflow {
@@ -25,49 +27,6 @@ double lag1_autocorrelation(const std::vector<double>& x);
 
 // x[k+1] - x[k].
 std::vector<double> increments(const std::vector<double>& x);
-
-// ---- Step-to-step oscillation ---------------------------------------------------------------
-
-// Correlation of consecutive force vectors F_n (one per integrator step, particles in id
-// order): c = sum_n F_n . F_{n+1} / sum_n (|F_n|^2 + |F_{n+1}|^2) / 2. Smooth dynamics gives
-// c -> 1; a period-2 mode F_n = A (-1)^n gives -1. Writing F = F_smooth + (-1)^n F_alt,
-// the alternating share of the force power is (1 - c) / 2. Also counts the fraction of
-// particles (groups of `group` components) whose force reverses from one step to the next.
-class StepCorrelation {
- public:
-  explicit StepCorrelation(std::size_t group = 3) : group_(group) {}
-  void add(const std::vector<double>& v);
-  std::size_t pairs() const { return pairs_; }
-  double correlation() const;        // c; 1 with fewer than 2 vectors
-  double alternating_share() const;  // (1 - c) / 2
-  double reversed_fraction() const;  // mean fraction of groups with F_n . F_{n+1} < 0
-  bool finite() const { return finite_; }
-
- private:
-  std::size_t group_;
-  std::vector<double> prev_;
-  double cross_ = 0.0, norm_ = 0.0, reversed_ = 0.0;
-  std::size_t pairs_ = 0;
-  bool finite_ = true;
-};
-
-// ---- Energy balance -------------------------------------------------------------------------
-
-// Steady-state energy balance over the averaging window (samples with time > t_eq), SPEC §3:
-//   <sigma_xy gdot V> = <D> + xi_V <(dV/dt)^2> + (Delta U + P Delta V) / T_window,
-// the last term (zero in a true steady state) removing the drift of the enthalpy U + P V over
-// a window that is not yet stationary. ratio = <W> / (<D + D_piston> + drift), its error from
-// the block scatter of the per-block ratios, residual = |ratio - 1|.
-struct EnergyBalance {
-  double ratio = 0.0;
-  double error = 0.0;
-  double residual = 0.0;
-  double drift = 0.0;      // (Delta U + P Delta V) / T, in units of power
-  double raw_ratio = 0.0;  // <W> / <D + D_piston> without the drift term (the engine's value)
-  bool valid = false;
-};
-EnergyBalance energy_balance(const std::vector<Sample>& samples, double t_eq, double gdot,
-                             std::optional<double> imposed_pressure, std::size_t blocks);
 
 // Error of the mean difference a - b over the averaging window (samples with time > t_eq),
 // from block averages of the paired difference series. Runs that share the start state, the

@@ -81,9 +81,13 @@ void expect_same_run(const std::string& a_path, const std::string& b_path) {
   const auto names = a.attr_names("/summary");
   EXPECT_EQ(names, b.attr_names("/summary"));
   for (const auto& name : names) {
-    if (name.rfind("wall_seconds", 0) == 0 || name == "status" || name == "integrator" ||
-        name == "ensemble")
+    if (name.rfind("wall_seconds", 0) == 0)
       continue;
+    if (name.rfind("verdict_", 0) == 0 || name == "status" || name == "integrator" ||
+        name == "ensemble") {
+      EXPECT_EQ(a.attr_string("/summary", name), b.attr_string("/summary", name)) << name;
+      continue;
+    }
     const double x = a.attr_double("/summary", name), y = b.attr_double("/summary", name);
     EXPECT_TRUE(x == y || (std::isnan(x) && std::isnan(y))) << name << ": " << x << " vs " << y;
   }

@@ -34,11 +34,11 @@ TEST(TypedSettings, DriverUsesTheExactDoubleAndTheSceneTextRoundTrips) {
 
 TEST(TypedSettings, TomlPathGivesTheSameSettings) {
   const std::string text = std::string(kScene) +
-                           "[integrator]\nkind = \"respa\"\ndt = 0.2\nn_inner = 3\n"
+                           "[integrator]\nkind = \"respa\"\ndt = 0.25\nn_inner = 3\n"
                            "inner = \"piston\"\n";
   const RunSpec spec = parse_run_spec(Scene::parse(text, "toml.toml"));
   const IntegratorSettings expected =
-      IntegratorSettings("respa").set("dt", 0.2).set("n_inner", 3).set("inner", "piston");
+      IntegratorSettings("respa").set("dt", 0.25).set("n_inner", 3).set("inner", "piston");
   EXPECT_EQ(spec.integrator, expected);
   EXPECT_EQ(spec.make_integrator()->name(), "respa");
 }

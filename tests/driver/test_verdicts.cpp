@@ -1,0 +1,157 @@
+// The verdicts every run gets (steady, stable, decorrelated), --strict, and the scene checks made
+// before anything runs (dt against sample_every, steps and memory up front).
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+#include "driver/run.hpp"
+#include "driver/verdicts.hpp"
+#include "lib/error.hpp"
+
+namespace jamflow {
+namespace {
+
+std::string scene(const std::string& ensemble, double phi, double gdot, double dt, double t_eq,
+                  double t_av, double sample_every = 1.0) {
+  return "[system]\nN = 200\nphi = " + std::to_string(phi) + "\nseed = 4\n[ensemble]\n" + ensemble +
+         "\n[shear]\nrate = " + std::to_string(gdot) +
+         "\n[integrator]\nkind = \"euler\"\ndt = " + std::to_string(dt) +
+         "\n[run]\nt_eq = " + std::to_string(t_eq) + "\nt_av = " + std::to_string(t_av) +
+         "\nsample_every = " + std::to_string(sample_every) + "\nthreads = 1\n";
+}
+
+const char* const kVolume = "kind = \"constant_volume\"";
+
+RunSpec spec_of(const std::string& text, const std::vector<std::string>& sets = {}) {
+  Scene s = Scene::parse(text, "test.toml");
+  for (const auto& a : sets)
+    s.set(a);
+  return parse_run_spec(s);
+}
+
+Summary run(const RunSpec& spec) {
+  RunOptions opt;
+  opt.quiet = true;
+  const ReplicaResult r = run_replica(spec, spec.seed, opt);
+  EXPECT_EQ(r.status, "complete");
+  return r.summary;
+}
+
+TEST(TrendT, SeesALineAndNotNoise) {
+  std::vector<double> line(20), flat(20, 3.0), noise(20);
+  std::mt19937 rng(1);
+  std::normal_distribution<double> g(0.0, 1.0);
+  for (int k = 0; k < 20; ++k) {
+    line[k] = 1.0 + 0.01 * k + 0.001 * g(rng);
+    noise[k] = 5.0 + g(rng);
+  }
+  EXPECT_GT(trend_t(line), 50.0);
+  EXPECT_EQ(trend_t(flat), 0.0);
+  EXPECT_LT(std::abs(trend_t(noise)), 4.0);
+  EXPECT_TRUE(std::isnan(trend_t({1.0, 2.0})));
+  // The false-alarm rate at |t| > 4 for independent Gaussian blocks (t with 18 degrees of
+  // freedom: p = 8e-4): at most 5 of 2000 noise series (expected 1.7; P(> 5) < 1%).
+  int alarms = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    for (auto& x : noise)
+      x = g(rng);
+    alarms += std::abs(trend_t(noise)) > 4.0;
+  }
+  EXPECT_LE(alarms, 5);
+}
+
+// A healthy run: dt = 0.1 (well inside Euler's stability edge, dt ~ 0.41 here), blocks of 100
+// against tau_sigma_xy of a few tau at gdot = 1e-2, and a window that starts after the transient.
+TEST(Verdicts, PassAHealthyRun) {
+  const Summary s = run(spec_of(scene(kVolume, 0.62, 1e-2, 0.1, 500.0, 2000.0)));
+  EXPECT_EQ(s.verdicts.at("stable"), "pass");
+  EXPECT_EQ(s.verdicts.at("steady"), "pass");
+  EXPECT_EQ(s.verdicts.at("decorrelated"), "pass");
+  EXPECT_FALSE(s.failed());
+  EXPECT_GT(s.values.at("force_step_correlation"), 0.99);
+  for (const auto& w : s.warnings)
+    ADD_FAILURE() << "unexpected warning: " << w;
+}
+
+// dt = 0.5 is past Euler's stability edge: a period-2 oscillation takes most of the force power
+// and the energy balance collapses (0.12 at N = 200, where the dissipation is inflated).
+TEST(Verdicts, FlagAnUnstableRun) {
+  const Summary s = run(spec_of(scene(kVolume, 0.62, 1e-3, 0.5, 100.0, 1000.0)));
+  EXPECT_EQ(s.verdicts.at("stable").rfind("fail: ", 0), 0u) << s.verdicts.at("stable");
+  EXPECT_EQ(s.values.at("stable"), 0.0);
+  EXPECT_LT(s.values.at("force_step_correlation"), 0.0);
+  EXPECT_LT(s.values.at("energy_balance_corrected"), 0.5);
+  std::size_t lines = 0;
+  for (const auto& w : s.warnings)
+    lines += w.rfind("not stable: ", 0) == 0;
+  EXPECT_EQ(lines, 1u);
+}
+
+// Compressed from phi = 0.45 at an imposed pressure with no equilibration: phi still rises
+// through the averaging window.
+TEST(Verdicts, FlagAStatePointThatIsStillDrifting) {
+  const Summary s = run(spec_of(scene("kind = \"constant_pressure\"\npressure = 1e-3\nxi_V = 1",
+                                      0.45, 1e-3, 0.1, 0.0, 200.0)));
+  EXPECT_EQ(s.verdicts.at("steady").rfind("fail: phi drifts from", 0), 0u)
+      << s.verdicts.at("steady");
+  EXPECT_GT(s.values.at("trend_t_phi"), 4.0);
+  EXPECT_TRUE(s.failed());
+}
+
+std::string config_error(const std::string& text, const std::vector<std::string>& sets = {}) {
+  try {
+    spec_of(text, sets);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(SceneChecks, DtIsNeverChangedSilently) {
+  const std::string base = scene(kVolume, 0.6, 1e-3, 0.1, 10.0, 40.0);
+  EXPECT_EQ(config_error(base, {"integrator.dt=0.3"}),
+            "[run] sample_every = 1 is not a whole number of [integrator] dt = 0.3 (3.33333 "
+            "steps); allowed multiples of dt, such as 0.9, or set [run] round_sample_every = true");
+  EXPECT_NE(config_error(base, {"integrator.dt=100"}).find("(0.01 steps)"), std::string::npos);
+  // Asked for: sample_every becomes 3 steps, dt stays, and the stored scene says so.
+  const RunSpec r = spec_of(base, {"integrator.dt=0.3", "run.round_sample_every=true"});
+  EXPECT_EQ(r.sample_every, 3 * 0.3);
+  EXPECT_EQ(r.make_integrator()->nominal_dt(), 0.3);
+  const Scene stored = Scene::parse(r.scene_text, "stored");
+  EXPECT_EQ(stored.section("run").number("sample_every", Range::positive()), 3 * 0.3);
+}
+
+TEST(SceneChecks, RunsThatCannotEndOrFitAreRefusedUpFront) {
+  const std::string base = scene(kVolume, 0.6, 1e-3, 0.1, 10.0, 40.0);
+  EXPECT_NE(config_error(base, {"integrator.dt=1e-300"}).find("steps per replica"),
+            std::string::npos);
+  EXPECT_NE(config_error(base, {"system.N=134217727"}).find("GB of memory; this machine has"),
+            std::string::npos);
+  // A dilute cell runs: the cell grid is sized by the particles, not by the volume.
+  const RunSpec dilute = spec_of(base, {"system.phi=1e-9", "run.t_eq=0.0", "run.t_av=20.0"});
+  RunOptions opt;
+  opt.quiet = true;
+  EXPECT_EQ(run_replica(dilute, 1, opt).status, "complete");
+}
+
+TEST(SceneChecks, StrictTurnsAFailedVerdictIntoExitStatus3) {
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("jamflow-strict-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string toml = (dir / "u.toml").string();
+  std::ofstream(toml) << scene(kVolume, 0.62, 1e-3, 0.5, 100.0, 1000.0) + "[output]\nfile = \"" +
+                             (dir / "u.h5").string() + "\"\n";
+  const std::string cmd = std::string(JAMFLOW_CLI) + " run -q " + toml;
+  EXPECT_EQ(WEXITSTATUS(std::system((cmd + " > /dev/null 2>&1").c_str())), 0);
+  EXPECT_EQ(WEXITSTATUS(std::system((cmd + " --force --strict > /dev/null 2>&1").c_str())), 3);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace jamflow
