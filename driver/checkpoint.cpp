@@ -151,6 +151,7 @@ void write_checkpoint(H5Writer& w, const std::vector<ReplicaResult>& replicas) {
     w.attr(g, "resumes", res.resumes);
     w.attr(g, "history", res.history);
     w.attr(g, "t_start", res.t_start);
+    w.attr(g, "horizon", res.horizon);
     w.attr(g, "step_cross", res.steps.cross);
     w.attr(g, "step_norm", res.steps.norm);
     w.attr(g, "step_pairs", res.steps.pairs);
@@ -203,6 +204,7 @@ std::vector<ReplicaResult> read_checkpoint(const H5Reader& r) {
     res.resumes = r.attr_int(g, "resumes");
     res.history = r.attr_string(g, "history");
     res.t_start = r.attr_double(g, "t_start");
+    res.horizon = r.attr_double(g, "horizon");
     res.steps.cross = r.attr_double(g, "step_cross");
     res.steps.norm = r.attr_double(g, "step_norm");
     res.steps.pairs = r.attr_int(g, "step_pairs");

@@ -5,7 +5,8 @@
 //   /checkpoint                      attrs: format, replicas
 //   /checkpoint/replicas/<k>         attrs: seed, status, wall_seconds, trajectory_bytes,
 //                                           kernel, kernel_target, threads, resumes, history,
-//                                           t_start, step_cross, step_norm, step_pairs
+//                                           t_start, horizon, step_cross, step_norm,
+//                                           step_pairs
 //     series/<field>                 the samples so far (time, strain, volume, ...)
 //     integrator                     attrs: the integrator's counters
 //     model                          attrs: evaluations, builds_at_last_sort, sorted_once,

@@ -21,6 +21,7 @@
 #include "lib/h5.hpp"
 #include "lib/init.hpp"
 #include "lib/progress.hpp"
+#include "lib/statistics.hpp"
 #include "lib/xyz.hpp"
 
 #ifndef JAMFLOW_VERSION
@@ -95,6 +96,14 @@ std::string short_num(double v) {
   char text[32];
   std::snprintf(text, sizeof text, "%.6g", v);
   return text;
+}
+
+// The longest a run of this spec may go: with t_eq = "auto" the transient is searched within the
+// first half of the run, so at most 2 t_av.
+double run_length_bound(const RunSpec& spec) {
+  if (spec.auto_av)
+    return spec.max_time;
+  return spec.auto_eq ? 2.0 * spec.t_av : spec.t_eq + spec.t_av;
 }
 
 double physical_memory_bytes() {
@@ -173,8 +182,12 @@ RunSpec parse_run_spec(const Scene& scene) {
   (void)spec.make_integrator();
 
   ConfigSection run = scene.section("run");
-  spec.t_eq = run.number("t_eq", Range::non_negative());
-  spec.t_av = run.number("t_av", Range::positive());
+  const std::optional<double> t_eq = run.number_or_auto("t_eq", Range::non_negative());
+  const std::optional<double> t_av = run.number_or_auto("t_av", Range::positive());
+  spec.auto_eq = !t_eq;
+  spec.auto_av = !t_av;
+  spec.t_eq = t_eq.value_or(0.0);
+  spec.t_av = t_av.value_or(0.0);
   spec.sample_every = run.number("sample_every", Range::positive());
   spec.blocks = run.integer("blocks", 20, 2, 100000);
   spec.replicas = run.integer("replicas", 1, 1, 10000);
@@ -182,7 +195,30 @@ RunSpec parse_run_spec(const Scene& scene) {
   // compete for cores; see README "Threads".
   spec.threads = static_cast<int>(run.integer("threads", 1, 0, 1024));
   const bool round_sampling = run.flag("round_sample_every", false);
+  if (spec.auto_av) {
+    spec.target_error = run.number("target_error", Range{0.0, 1.0, false, false});
+    spec.max_time = run.number("max_time", Range::positive());
+  } else {
+    for (const char* key : {"target_error", "max_time"}) {
+      if (run.has(key))
+        throw ConfigError(run.label(key) +
+                          " is used only with [run] t_av = \"auto\"; allowed "
+                          "without it");
+    }
+  }
   run.finish();
+  if (spec.auto_av) {
+    // The first window: 4 samples per block, or 1/32 of the budget; then it grows.
+    const double budget = spec.max_time - spec.t_eq;
+    spec.t_av =
+        std::min(budget, std::max(4.0 * double(spec.blocks) * spec.sample_every, budget / 32.0));
+    if (!(spec.t_av >= double(spec.blocks) * spec.sample_every)) {
+      throw ConfigError("[run] max_time = " + fmt(spec.max_time) +
+                        " leaves less than blocks * "
+                        "sample_every = " +
+                        fmt(double(spec.blocks) * spec.sample_every) + " after t_eq; allowed more");
+    }
+  }
   // dt is never changed: sampling lands on whole steps, or (asked for) sample_every is rounded
   // to the nearest whole number of steps, and the stored scene says so.
   if (const double dt = spec.make_integrator()->nominal_dt(); dt > 0.0) {
@@ -203,10 +239,10 @@ RunSpec parse_run_spec(const Scene& scene) {
       spec.scene_text = rounded.text();
     }
     // Steps up front: a run that cannot end is refused before it starts.
-    const double steps = (spec.t_eq + spec.t_av) / dt;
+    const double steps = run_length_bound(spec) / dt;
     if (!(steps <= kMaxSteps)) {
       throw ConfigError("[integrator] dt = " + fmt(dt) + " makes " + short_num(steps) +
-                        " steps of (t_eq + t_av) = " + fmt(spec.t_eq + spec.t_av) +
+                        " steps of (t_eq + t_av) = " + fmt(run_length_bound(spec)) +
                         "; allowed at most " + fmt(kMaxSteps) + " steps per replica");
     }
     if (!(steps * double(spec.n) <= kMaxParticleSteps)) {
@@ -220,7 +256,7 @@ RunSpec parse_run_spec(const Scene& scene) {
   // Memory up front: the samples and the particles (measured per particle, with the
   // checkpoint's copy) against what the machine has.
   {
-    const double samples = (spec.t_eq + spec.t_av) / spec.sample_every + 1.0;
+    const double samples = run_length_bound(spec) / spec.sample_every + 1.0;
     const double bytes = samples * kBytesPerSample + double(spec.n) * kBytesPerParticle;
     const double have = physical_memory_bytes();
     if (!(samples <= kMaxSamples) || (have > 0.0 && !(bytes <= have))) {
@@ -566,6 +602,83 @@ class Watcher {
 
 }  // namespace
 
+namespace {
+
+// How long a run goes, decided from its samples so far (so a continued run decides the same).
+struct Length {
+  bool done = false;
+  double t_eq = 0.0;     // the transient's end (given, or found)
+  double horizon = 0.0;  // the time to reach before deciding again
+  std::string why, method;
+};
+
+Length decide_length(const RunSpec& spec, const Series& series, const StepPairs* steps) {
+  Length len;
+  const double eps = 1e-9 * spec.sample_every;
+  const double t = series.samples.back().time;
+  len.t_eq = spec.t_eq;
+  len.method = "given";
+  if (spec.auto_eq) {
+    std::size_t drop = 0;
+    for (double Sample::*field : {&Sample::sigma_xy, &Sample::pressure, &Sample::phi})
+      drop = std::max(drop, mser_truncation(series.column(field)));
+    drop = std::min(drop, series.samples.size() - 1);
+    len.t_eq = series.samples[drop].time;
+    len.method =
+        "MSER-5 (marginal standard error rule on batch means of 5 samples) of sigma_xy, "
+        "P_hat and phi; the latest of their truncation points";
+  }
+  if (!spec.auto_av) {
+    len.horizon = len.t_eq + spec.t_av;
+    if (spec.auto_eq)
+      len.horizon = std::min(len.horizon, run_length_bound(spec));
+    len.done = t >= len.horizon - eps;
+    len.why =
+        spec.auto_eq ? "t_av = " + fmt(spec.t_av) + " after the transient" : "t_eq + t_av as given";
+    return len;
+  }
+  const double window = t - len.t_eq;
+  const double least = 4.0 * double(spec.blocks) * spec.sample_every;
+  if (window < least - eps) {
+    len.horizon = std::min(spec.max_time, len.t_eq + least);
+    len.done = t >= spec.max_time - eps;
+    len.why = "max_time reached before the window held 4 samples per block";
+    return len;
+  }
+  RunSpec eff = spec;
+  eff.t_eq = len.t_eq;
+  const Summary sum = summarize(eff, series, steps);
+  const bool sheared = spec.shear_rate > 0.0;
+  const std::string name = !sheared ? "pressure" : spec.ensemble->imposed_pressure() ? "mu" : "eta";
+  const double value = sum.values.at(name), err = sum.values.at(name + "_err");
+  const double rel = std::abs(err / value);
+  const bool decorrelated = sum.verdicts.at("decorrelated") == "pass";
+  char what[200];
+  std::snprintf(what, sizeof what, "relative error of %s %.3g %s target_error %g%s at t_av = %g",
+                name.c_str(), rel, rel <= spec.target_error ? "<=" : ">", spec.target_error,
+                decorrelated ? "" : " (blocks shorter than 2 tau)", window);
+  if (rel <= spec.target_error && decorrelated) {
+    len.done = true;
+    len.why = std::string("target reached: ") + what;
+  } else if (t >= spec.max_time - eps) {
+    len.done = true;
+    len.why = std::string("max_time reached: ") + what;
+  } else {
+    // The block error falls as 1 / sqrt(window): aim for the target, growing by 1.5x to 4x.
+    const double ratio = rel / spec.target_error;
+    const double grow = std::clamp(std::isfinite(ratio) ? ratio * ratio : 4.0, 1.5, 4.0);
+    len.horizon = std::min(spec.max_time, len.t_eq + grow * window);
+    len.why = what;
+  }
+  return len;
+}
+
+long long sample_index(double time, double sample_every) {
+  return static_cast<long long>(std::floor(time / sample_every + 1e-9));
+}
+
+}  // namespace
+
 ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOptions& options,
                           const ReplicaResult* from) {
   ReplicaResult res;
@@ -607,8 +720,14 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
     res.t_start = model.state().time;
   }
   const double t_start = res.t_start;
-  const double t_total = spec.t_eq + spec.t_av;
-  const auto k_max = static_cast<long long>(std::floor(t_total / spec.sample_every + 1e-9));
+  const bool automatic = spec.auto_eq || spec.auto_av;
+  // The first horizon: t_eq + t_av; with t_eq = "auto", t_av (where the transient is first
+  // looked for); a continued automatic run keeps the horizon it had.
+  res.horizon = spec.auto_eq && !spec.auto_av ? spec.t_av : spec.t_eq + spec.t_av;
+  if (from && automatic && from->horizon > 0.0)
+    res.horizon = from->horizon;
+  long long k_max = sample_index(res.horizon, spec.sample_every);
+  const double t_total = res.horizon;
   const long long traj_stride =
       spec.trajectory_every > 0 ? std::llround(spec.trajectory_every / spec.sample_every) : 0;
 
@@ -693,7 +812,17 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
       checkpoint();  // the .part file exists from the start
     }
     bool stopped = false;
-    for (long long k = k_first; k <= k_max && !stopped; ++k) {
+    for (long long k = k_first; !stopped; ++k) {
+      if (k > k_max) {
+        if (!automatic)
+          break;
+        const Length len = decide_length(spec, res.series, step_test ? &res.steps : nullptr);
+        if (len.done)
+          break;
+        res.horizon = std::max(len.horizon, double(k) * spec.sample_every);
+        k_max = sample_index(res.horizon, spec.sample_every);
+        progress.set_total(res.horizon);
+      }
       const double t_rel = double(k) * spec.sample_every;
       const double t_end = t_start + t_rel;
       integ->advance(model, ens, t_end);
@@ -747,7 +876,17 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
       std::filesystem::rename(traj_path + ".part", traj_path);
   }
   if (res.status == "complete") {
-    res.summary = summarize(spec, res.series, step_test ? &res.steps : nullptr);
+    const StepPairs* steps = step_test ? &res.steps : nullptr;
+    const Length len = decide_length(spec, res.series, steps);
+    RunSpec eff = spec;
+    eff.t_eq = len.t_eq;
+    res.summary = summarize(eff, res.series, steps);
+    res.summary.values["t_eq"] = len.t_eq;
+    res.summary.values["t_av"] = res.series.samples.back().time - len.t_eq;
+    res.summary.texts["run_length"] = len.why;
+    res.summary.texts["t_eq_method"] = len.method;
+    if (spec.auto_av && len.why.rfind("max_time", 0) == 0)
+      res.summary.warnings.push_back("t_av = \"auto\": " + len.why);
   }
   res.wall_seconds = elapsed();
   return res;
@@ -772,7 +911,8 @@ void write_replica(H5Writer& w, const RunSpec& spec, const ReplicaResult& r,
   if (spec.ensemble->has_piston()) {
     w.dataset(ts + "/piston_dissipation", ss.column(&Sample::piston_dissipation));
   }
-  w.attr(ts, "t_eq", spec.t_eq);
+  const auto t_eq = r.summary.values.find("t_eq");
+  w.attr(ts, "t_eq", t_eq == r.summary.values.end() ? spec.t_eq : t_eq->second);
   w.attr(ts, "seed", static_cast<std::int64_t>(r.seed));
 
   // Final configuration, in particle id order; cell rows are the lattice vectors.
@@ -811,6 +951,8 @@ void write_replica(H5Writer& w, const RunSpec& spec, const ReplicaResult& r,
     w.attr(sm, k, v);
   for (const auto& [k, v] : src.summary.verdicts)
     w.attr(sm, "verdict_" + k, v);
+  for (const auto& [k, v] : r.summary.texts)
+    w.attr(sm, k, v);
   w.attr(sm, "N", static_cast<std::int64_t>(n));
   w.attr(sm, "alpha", spec.alpha);
   spec.ensemble->describe(w, sm);
@@ -964,6 +1106,14 @@ bool print_summary(const RunSpec& spec, const std::vector<ReplicaResult>& result
   std::printf("  tau_sigma_xy   = %.4g\n", get("tau_sigma_xy"));
   for (const auto& [name, text] : combined.verdicts)
     std::printf("  %-14s = %s\n", name.c_str(), text.c_str());
+  if (spec.auto_eq || spec.auto_av) {
+    for (std::size_t r = 0; r < results.size(); ++r) {
+      const auto& t = results[r].summary;
+      std::printf("  %-14s = %s%.6g after t_eq = %.6g (%s)\n", "t_av",
+                  count > 1 ? ("replica " + std::to_string(r) + ": ").c_str() : "",
+                  t.values.at("t_av"), t.values.at("t_eq"), t.texts.at("run_length").c_str());
+    }
+  }
   std::printf("  wall time      = %.2f s\n", wall);
   return combined.failed();
 }
@@ -997,7 +1147,8 @@ int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOp
       throw ConfigError("replica " + std::to_string(k) + " of this run " + from->status +
                         "; a failed run cannot be continued");
     }
-    if (from && from->status == "complete" && from->series.samples.size() > k_max)
+    if (from && from->status == "complete" &&
+        (spec.auto_eq || spec.auto_av || from->series.samples.size() > k_max))
       continue;  // done
     RunOptions o = options;
     o.label = stem + replica_suffix(k, count);

@@ -39,6 +39,13 @@ struct RunSpec {
   double shear_rate = 0.0;
   // [run]
   double t_eq = 0.0, t_av = 0.0, sample_every = 0.0;
+  // t_eq = "auto": the transient's end is found from the data (MSER-5, lib/statistics.hpp), and
+  // t_av then counts from there. t_av = "auto": the window grows until the relative block error
+  // of eta (of mu at constant pressure; of P_hat without shear) is at most target_error with
+  // blocks of at least 2 tau, or until t_eq + t_av reaches max_time. t_av then holds the first
+  // window tried.
+  bool auto_eq = false, auto_av = false;
+  double target_error = 0.0, max_time = 0.0;
   std::int64_t blocks = 20;
   std::int64_t replicas = 1;
   int threads = 0;
@@ -79,6 +86,9 @@ struct Summary {
   // The verdicts (driver/verdicts.hpp): "steady", "stable", "decorrelated" -> "pass", or
   // "fail: <why>", or "not checked: <why>". values[name] is 1 for pass, 0 for fail, NaN else.
   std::map<std::string, std::string> verdicts;
+  // Texts: "run_length" (with t_av = "auto": whether the target or max_time ended the run),
+  // "t_eq_method".
+  std::map<std::string, std::string> texts;
   bool failed() const;  // any verdict failed
 };
 
@@ -123,6 +133,7 @@ struct ReplicaResult {
   double t_start = 0.0;
   std::int64_t trajectory_bytes = 0;
   std::int64_t resumes = 0;  // times continued from a checkpoint
+  double horizon = 0.0;      // the time the run currently aims for (t_eq + t_av, or auto)
   StepPairs steps;           // what the oscillation test has seen so far
   // "none" (fixed-step integrators keep no history between steps), "kept", or, for an adaptive
   // solver continued from a checkpoint, "fresh after resume at t = ...".

@@ -86,6 +86,23 @@ double ConfigSection::number(std::string_view key, Range range) {
   return v;
 }
 
+std::optional<double> ConfigSection::number_or_auto(std::string_view key, Range range) {
+  const toml::node* n = node(key);
+  if (n && n->is_string()) {
+    used_.emplace(key);
+    if (n->value<std::string>().value() == "auto")
+      return std::nullopt;
+    throw ConfigError(label(key) + " = " + show(*n) + " is not allowed; allowed " + range.text() +
+                      " or \"auto\"");
+  }
+  if (n && !n->is_number()) {
+    used_.emplace(key);
+    throw ConfigError(label(key) + " = " + show(*n) + " is not a number; allowed " + range.text() +
+                      " or \"auto\"");
+  }
+  return number(key, range);
+}
+
 double ConfigSection::number(std::string_view key, double fallback, Range range) {
   return has(key) ? number(key, range) : fallback;
 }

@@ -6,6 +6,7 @@
 #pragma once
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <set>
 #include <string>
 #include <string_view>
@@ -43,6 +44,8 @@ class ConfigSection {
   std::string choice(std::string_view key, std::string_view fallback,
                      const std::vector<std::string>& allowed);
   std::string text(std::string_view key, std::string_view fallback);
+  // A number in `range`, or the text "auto" (then empty).
+  std::optional<double> number_or_auto(std::string_view key, Range range);
   bool flag(std::string_view key, bool fallback);
 
   // Error for any key that was never read.

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -132,6 +133,43 @@ ReplicaAverage replica_average(const std::vector<double>& means,
     out.replica_error = out.replica_std / std::sqrt(k);
   }
   return out;
+}
+
+std::size_t mser_truncation(const std::vector<double>& x, std::size_t batch) {
+  if (batch == 0)
+    batch = 1;
+  const std::size_t m = x.size() / batch;
+  if (m < 4)
+    return 0;
+  // Batch means of the newest m * batch samples (the oldest remainder counts as transient).
+  const std::size_t skip = x.size() - m * batch;
+  std::vector<double> y(m);
+  for (std::size_t b = 0; b < m; ++b) {
+    double s = 0.0;
+    for (std::size_t k = 0; k < batch; ++k)
+      s += x[skip + b * batch + k];
+    y[b] = s / double(batch);
+  }
+  // Suffix sums of y and y^2 give each MSER(d) in O(1); the sum of squares about the mean is
+  // computed about a shift (the last mean) to keep cancellation small.
+  const double shift = y.back();
+  std::vector<double> s1(m + 1, 0.0), s2(m + 1, 0.0);
+  for (std::size_t b = m; b-- > 0;) {
+    s1[b] = s1[b + 1] + (y[b] - shift);
+    s2[b] = s2[b + 1] + (y[b] - shift) * (y[b] - shift);
+  }
+  std::size_t best = 0;
+  double best_value = std::numeric_limits<double>::infinity();
+  for (std::size_t d = 0; d <= m / 2; ++d) {
+    const double left = double(m - d);
+    const double ss = std::max(0.0, s2[d] - s1[d] * s1[d] / left);
+    const double value = ss / (left * left);
+    if (value < best_value) {
+      best_value = value;
+      best = d;
+    }
+  }
+  return best == 0 ? 0 : skip + best * batch;
 }
 
 }  // namespace jamflow

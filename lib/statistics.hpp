@@ -22,6 +22,14 @@ BlockAverage block_average(const std::vector<double>& x, std::size_t blocks);
 // for a constant series (values that vary at round-off level only).
 double integrated_autocorrelation(const std::vector<double>& x);
 
+// The end of the initial transient of a series, by the marginal standard error rule on batch
+// means of `batch` samples (MSER-5 for batch = 5; White 1997, Franklin & White 2008): the
+// truncation d that minimises the squared standard error of the mean of what is left,
+//   MSER(d) = sum_{i >= d} (y_i - mean_d)^2 / (m - d)^2   over the m batch means y,
+// searched over the first half of the batches only (later minima are the rule's known
+// artefact at the end of a series). Returns the number of samples to drop.
+std::size_t mser_truncation(const std::vector<double>& x, std::size_t batch = 5);
+
 // For correlations that decay as exp(-t / tau), the expected ratio of the error of a mean from
 // many blocks of length `block` (in the units of tau) to its true error:
 // sqrt(1 - (tau / block) (1 - exp(-block / tau))). 1 for tau = 0; 0.75 at block = 2 tau, 0.9 at

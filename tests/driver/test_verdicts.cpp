@@ -35,6 +35,8 @@ RunSpec spec_of(const std::string& text, const std::vector<std::string>& sets = 
   return parse_run_spec(s);
 }
 
+std::string config_error(const std::string& text, const std::vector<std::string>& sets = {});
+
 Summary run(const RunSpec& spec) {
   RunOptions opt;
   opt.quiet = true;
@@ -104,7 +106,49 @@ TEST(Verdicts, FlagAStatePointThatIsStillDrifting) {
   EXPECT_TRUE(s.failed());
 }
 
-std::string config_error(const std::string& text, const std::vector<std::string>& sets = {}) {
+// t_av = "auto" at gdot = 1e-2, N = 200: eta's relative block error falls below 2% within a few
+// thousand tau (about 1.4% at t_av = 900 on this seed); a target of 1e-4 would need ~1e8 tau,
+// so the run stops at max_time and says so.
+TEST(AutoLength, TavReachesItsTargetOrStopsAtMaxTime) {
+  const std::string base = scene(kVolume, 0.62, 1e-2, 0.1, 200.0, 10.0);
+  const RunSpec reach =
+      spec_of(base, {"run.t_av=\"auto\"", "run.target_error=0.02", "run.max_time=20000.0"});
+  const Summary a = run(reach);
+  EXPECT_EQ(a.texts.at("run_length").rfind("target reached: relative error of eta", 0), 0u)
+      << a.texts.at("run_length");
+  EXPECT_LE(a.values.at("eta_err") / a.values.at("eta"), 0.02);
+  EXPECT_EQ(a.verdicts.at("decorrelated"), "pass");
+  EXPECT_LT(a.values.at("t_eq") + a.values.at("t_av"), 20000.0);
+  const RunSpec out_of_reach =
+      spec_of(base, {"run.t_av=\"auto\"", "run.target_error=1e-4", "run.max_time=1500.0"});
+  const Summary b = run(out_of_reach);
+  EXPECT_EQ(b.texts.at("run_length").rfind("max_time reached: relative error of eta", 0), 0u)
+      << b.texts.at("run_length");
+  EXPECT_DOUBLE_EQ(b.values.at("t_eq") + b.values.at("t_av"), 1500.0);
+  bool warned = false;
+  for (const auto& w : b.warnings)
+    warned = warned || w.rfind("t_av = \"auto\": max_time reached", 0) == 0;
+  EXPECT_TRUE(warned);
+  // The keys belong together.
+  EXPECT_NE(config_error(base, {"run.target_error=0.01"}).find("used only with [run] t_av = "),
+            std::string::npos);
+  EXPECT_NE(config_error(base, {"run.t_av=\"long\""}).find("or \"auto\""), std::string::npos);
+}
+
+// t_eq = "auto" from a random start at constant volume: P_hat relaxes from 0.074 (the random
+// overlaps) to 0.010 within about 50 tau at gdot = 1e-2. MSER-5 puts the transient's end there
+// (51 on this seed), and the window of t_av after it is steady.
+TEST(AutoLength, TeqFindsTheEndOfTheStartUpTransient) {
+  const RunSpec spec = spec_of(scene(kVolume, 0.62, 1e-2, 0.1, 0.0, 1500.0), {"run.t_eq=\"auto\""});
+  const Summary s = run(spec);
+  EXPECT_GT(s.values.at("t_eq"), 10.0);
+  EXPECT_LT(s.values.at("t_eq"), 300.0);
+  EXPECT_EQ(s.texts.at("t_eq_method").rfind("MSER-5", 0), 0u);
+  EXPECT_GE(s.values.at("t_av"), 1500.0 - 1e-9);
+  EXPECT_EQ(s.verdicts.at("steady"), "pass");
+}
+
+std::string config_error(const std::string& text, const std::vector<std::string>& sets) {
   try {
     spec_of(text, sets);
   } catch (const ConfigError& e) {

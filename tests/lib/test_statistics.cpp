@@ -5,6 +5,9 @@
 
 #include <cmath>
 #include <random>
+
+#include <cmath>
+#include <random>
 #include <stdexcept>
 #include <utility>
 #include <vector>
@@ -143,6 +146,30 @@ TEST(Statistics, BlockErrorsOfCorrelatedRunsAreAsSmallAsPredicted) {
   const double a = std::exp(-1.0 / 20.0), tau_int = (1.0 + a) / (2.0 * (1.0 - a));
   const double predicted = block_error_ratio(double(length), tau_int);
   EXPECT_NEAR(std::sqrt(err2 / runs / var), predicted, 0.08 * predicted);
+}
+
+}  // namespace
+}  // namespace jamflow
+
+namespace jamflow {
+namespace {
+
+// MSER-5: a decaying transient (amplitude 20 sigma, decay 50 samples) followed by noise is cut
+// where the transient has fallen into the noise (about 150 samples: 20 e^-3 = 1 sigma); white
+// noise alone is cut little (the rule's minimum falls in the first few batches).
+TEST(Mser, CutsTheTransientAndLittleOfPlainNoise) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> g(0.0, 1.0);
+  std::vector<double> x(2000), noise(2000);
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    x[k] = 20.0 * std::exp(-double(k) / 50.0) + g(rng);
+    noise[k] = g(rng);
+  }
+  const std::size_t cut = mser_truncation(x);
+  EXPECT_GT(cut, 80u);
+  EXPECT_LT(cut, 400u);
+  EXPECT_LT(mser_truncation(noise), 200u);
+  EXPECT_EQ(mser_truncation({1.0, 2.0, 3.0}), 0u);  // too short to judge
 }
 
 }  // namespace
