@@ -11,6 +11,7 @@
 #include "driver/run.hpp"
 #include "ensembles/registry.hpp"
 #include "integrators/registry.hpp"
+#include "lib/cli_exit.hpp"
 #include "lib/error.hpp"
 #include "studies/study.hpp"
 
@@ -41,7 +42,7 @@ int run_command(const std::vector<std::string>& args) {
   try {
     app.parse(rev);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return jamflow::parse_error_exit(app, e, "jamflow run");
   }
   jamflow::Scene scene = scene_path.empty()
                              ? jamflow::Scene::parse(jamflow::kDefaultScene, "<default scene>")
@@ -90,6 +91,9 @@ int main(int argc, char** argv) {
   try {
     if (args.empty() || args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
       print_usage();
+      if (args.empty())
+        std::fprintf(stderr,
+                     "jamflow: error: no command given; allowed: run, scene, analyze, study\n");
       return args.empty() ? 2 : 0;
     }
     if (args[0] == "--version" || args[0] == "-V") {
@@ -112,10 +116,13 @@ int main(int argc, char** argv) {
                  cmd.c_str());
     return 2;
   } catch (const jamflow::ConfigError& e) {
-    std::fprintf(stderr, "jamflow: error: %s\n", e.what());
+    std::fprintf(stderr, "jamflow: error: %s\n", jamflow::one_line(e.what()).c_str());
+    return 2;
+  } catch (const jamflow::InputFileError& e) {  // a scene or init file that cannot be read
+    std::fprintf(stderr, "jamflow: error: %s\n", jamflow::one_line(e.what()).c_str());
     return 2;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "jamflow: error: %s\n", e.what());
+    std::fprintf(stderr, "jamflow: error: %s\n", jamflow::one_line(e.what()).c_str());
     return 1;
   }
 }

@@ -3,6 +3,8 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -192,11 +194,18 @@ Scene Scene::parse(std::string_view text, std::string_view source) {
 }
 
 Scene Scene::load(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw InputFileError("scene file '" + path + "' is a directory; allowed: a TOML file");
   std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw IoError("cannot open scene file '" + path + "'");
+  if (!in) {
+    throw InputFileError("cannot open scene file '" + path + "': " + std::strerror(errno) +
+                         "; allowed: a readable TOML file");
+  }
   std::ostringstream buf;
   buf << in.rdbuf();
+  if (in.bad())
+    throw InputFileError("cannot read scene file '" + path + "'; allowed: a readable TOML file");
   return parse(buf.str(), path);
 }
 

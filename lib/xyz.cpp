@@ -166,10 +166,10 @@ struct Column {
 State read_xyz(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
-    throw IoError(path + ": is a directory, not a file");
+    throw InputFileError(path + ": is a directory, not a file");
   std::ifstream in(path);
   if (!in)
-    throw IoError(path + ": cannot open for reading: " + std::strerror(errno));
+    throw InputFileError(path + ": cannot open for reading: " + std::strerror(errno));
   const Parser p(path);
 
   std::string line;

@@ -27,7 +27,7 @@ inline constexpr double kDiameterTolerance = 1e-6;
 //    1) within kDiameterTolerance, not from the labels;
 //  - positions finite and within 1e6 cell lengths of the cell.
 // If the header has Strain=, the strain is restored from it (the tilt must agree with it
-// modulo remaps), otherwise strain = xy / Ly. Throws IoError (file cannot be opened) or
+// modulo remaps), otherwise strain = xy / Ly. Throws InputFileError (file cannot be opened) or
 // ConfigError (naming the path, the line, the value and what is allowed).
 State read_xyz(const std::string& path);
 

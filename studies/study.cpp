@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "lib/cli_exit.hpp"
 #include "lib/error.hpp"
 
 namespace jamflow::studies {
@@ -47,7 +48,7 @@ int study_main(const std::vector<std::string>& args) {
   try {
     app.parse(rev);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return parse_error_exit(app, e, "jamflow study");
   }
   for (const auto& s : registry()) {
     if (s.name == name) {
