@@ -167,6 +167,9 @@ State read_xyz(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
     throw InputFileError(path + ": is a directory, not a file");
+  // A device or pipe has no size to check the count against, and /dev/zero has no line end.
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw InputFileError(path + ": is not a regular file; allowed: an extended XYZ file");
   std::ifstream in(path);
   if (!in)
     throw InputFileError(path + ": cannot open for reading: " + std::strerror(errno));

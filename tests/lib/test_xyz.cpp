@@ -389,6 +389,17 @@ TEST_F(XyzTest, MissingFileIsIoError) {
   }
 }
 
+TEST_F(XyzTest, DevicesAreNotXyzFiles) {
+  // /dev/zero has no size and no line end: reading it would never finish.
+  try {
+    read_xyz("/dev/zero");
+    ADD_FAILURE() << "no InputFileError";
+  } catch (const InputFileError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "/dev/zero: is not a regular file; allowed: an extended XYZ file");
+  }
+}
+
 TEST_F(XyzTest, WriteToMissingDirectoryIsIoError) {
   EXPECT_THROW(write_xyz_file(file("no/such/dir/out.xyz"), make_state()), IoError);
 }
