@@ -177,10 +177,12 @@ State read_xyz(const std::string& path) {
 
   std::string line;
   std::size_t line_no = 0;
+  std::uintmax_t consumed = 0;  // bytes read so far, line ends included
   auto next_line = [&]() -> bool {
     if (!std::getline(in, line))
       return false;
     ++line_no;
+    consumed += line.size() + 1;
     if (!line.empty() && line.back() == '\r')
       line.pop_back();  // files from Windows tools
     return true;
@@ -339,12 +341,12 @@ State read_xyz(const std::string& path) {
 
   // Each row is at least one character per column, separated by spaces, with a newline: refuse
   // a count the rest of the file cannot hold before allocating for it.
+  // (Counted from the lines read: tellg() is -1 once the header line ended the file.)
   {
     std::error_code size_ec;
     const auto file_bytes = std::filesystem::file_size(path, size_ec);
-    const auto header_end = in.tellg();
-    if (!size_ec && header_end >= 0 && static_cast<std::uintmax_t>(header_end) <= file_bytes) {
-      const std::uintmax_t left = file_bytes - static_cast<std::uintmax_t>(header_end);
+    if (!size_ec) {
+      const std::uintmax_t left = file_bytes > consumed ? file_bytes - consumed : 0;
       const std::uintmax_t row_min = 2 * columns.size();
       if (left + 1 < static_cast<std::uintmax_t>(n) * row_min) {
         p.fail(1, "particle count = " + std::to_string(n) + " needs at least " + std::to_string(n) +

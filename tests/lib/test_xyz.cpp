@@ -348,6 +348,15 @@ TEST_F(XyzTest, RejectsCountsTheFileCannotHold) {
                                     ":1: particle count = 100000000 needs at least 100000000 "
                                     "rows of 5 columns, but only 24 bytes follow the header; "
                                     "allowed: the number of particle rows");
+  // The file ends with the header line itself (found by fuzz_xyz: the check was skipped and
+  // 14 million particles were allocated).
+  const std::string bare = write_text(
+      "bare.xyz",
+      "14010042\nLattice=\"6 0 0 0 6 0 0 0 6\" Properties=species:S:1:pos:R:3:radius:R:1");
+  EXPECT_NE(config_error(bare).find(":1: particle count = 14010042 needs at least 14010042 rows "
+                                    "of 5 columns, but only 0 bytes follow the header"),
+            std::string::npos)
+      << config_error(bare);
 }
 
 TEST_F(XyzTest, RejectsHugePropertyCounts) {
