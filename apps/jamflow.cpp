@@ -34,7 +34,7 @@ int run_command(const std::vector<std::string>& args) {
   app.add_option("--set", sets, "override a scene value: section.key=value (repeatable)");
   app.add_option("--threads", threads,
                  "OpenMP threads (default 1; 0 = all cores; overrides [run] threads)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0, 1024));  // as [run] threads; the message names the bounds
   app.add_option("--replicas", replicas, "independent replicas (overrides [run] replicas)")
       ->check(CLI::PositiveNumber);
   app.add_flag("-q,--quiet", quiet, "no progress line");

@@ -41,7 +41,7 @@ int study_main(const std::vector<std::string>& args) {
       ->check(CLI::IsMember({"quick", "standard", "paper"}));
   app.add_option("--out", opt.out_dir, "output folder (default out/<study>-<preset>)");
   app.add_option("--threads", opt.threads, "OpenMP threads (0 = all)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0, 1024));  // as [run] threads; the message names the bounds
   app.add_flag("--quiet", opt.quiet, "no progress lines");
   app.add_flag("--no-plots", opt.no_plots, "skip PNG plots");
   std::vector<std::string> rev(args.rbegin(), args.rend());

@@ -115,7 +115,8 @@ TEST_F(ExitStatus, RunParseErrorsAreUsageErrors) {
   // CLI11's own codes would be 109 (extras), 105 (validation) and 106 (argument mismatch).
   expect_usage_error(run({"run", "--no-such-option"}), "jamflow run: error: ");
   expect_usage_error(run({"run", "a.toml", "b.toml"}), "jamflow run: error: ");
-  expect_usage_error(run({"run", "--threads", "-1"}), "jamflow run: error: ");
+  expect_usage_error(run({"run", "--threads", "-1"}),
+                     "jamflow run: error: --threads: Value -1 not in range 0 to 1024");
   expect_usage_error(run({"run", "--replicas", "0"}), "jamflow run: error: ");
   expect_usage_error(run({"run", "--threads", "two"}), "jamflow run: error: ");
   expect_usage_error(run({"run", "--output"}), "jamflow run: error: ");
