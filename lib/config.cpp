@@ -61,13 +61,20 @@ namespace {
 // issue #190), i.e. undefined behaviour in the parser, found by fuzz_scene. That happens for a
 // non-ASCII character outside strings and comments (never valid TOML 1.0: bare keys, numbers,
 // booleans and dates are ASCII) and right after a backslash in a basic string (escapes are
-// ASCII too). Returns the 1-based line of the first such character and what it follows, or
-// line 0 if there is none; non-ASCII text in strings and comments is fine.
+// ASCII too). A quote inside a bare token (after '+', a digit, a letter) does not open a
+// string: the parser scans such a value up to the next whitespace. Returns the 1-based line of the
+// first such character and what it follows, or line 0 if there is none; non-ASCII text in strings
+// and comments is fine.
 std::pair<std::size_t, const char*> unsafe_non_ascii(std::string_view t) {
   enum class In { kCode, kComment, kBasic, kLiteral, kMultiBasic, kMultiLiteral } in = In::kCode;
   std::size_t line = 1;
   std::size_t i = t.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;  // a UTF-8 byte order mark
   auto high = [](char c) { return static_cast<unsigned char>(c) >= 0x80; };
+  // Characters after which a quote opens a string (key, value, array or table element).
+  auto token_start = [](char c) {
+    return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '=' || c == '[' || c == '{' ||
+           c == ',' || c == '.' || c == '\xBF';  // \xBF: the end of a byte order mark
+  };
   auto at = [&](std::size_t k, std::string_view s) { return t.substr(k, s.size()) == s; };
   for (; i < t.size(); ++i) {
     const char c = t[i];
@@ -79,6 +86,9 @@ std::pair<std::size_t, const char*> unsafe_non_ascii(std::string_view t) {
           return {line, "outside a string or comment"};
         if (c == '#') {
           in = In::kComment;
+        } else if ((c == '"' || c == '\'') && i > 0 && !token_start(t[i - 1])) {
+          // Inside a bare token (e.g. +'...), where the parser scans a value up to the next
+          // whitespace without starting a string: the quote is one more character of it.
         } else if (c == '"') {
           in = at(i, "\"\"\"") ? In::kMultiBasic : In::kBasic;
           i += in == In::kMultiBasic ? 2 : 0;

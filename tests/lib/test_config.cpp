@@ -78,6 +78,11 @@ TEST(Config, NonAsciiOutsideStringsIsRefusedBeforeTheParser) {
   EXPECT_NE(after_backslash.find("t.toml:3: non-ASCII character right after a backslash"),
             std::string::npos)
       << after_backslash;
+  // A quote in the middle of a value does not start a string (the parser scans on).
+  EXPECT_NE(error_of([] {
+              Scene::parse("x = +'\xC3\x84'\n", "t.toml");
+            }).find("t.toml:1: non-ASCII character outside a string or comment"),
+            std::string::npos);
   const std::string escape = error_of([] { Scene::parse("s = \"a\\\xC2\xA7\"\n", "t.toml"); });
   EXPECT_NE(escape.find("t.toml:1: non-ASCII character right after a backslash"), std::string::npos)
       << escape;
