@@ -61,21 +61,19 @@ namespace {
 // issue #190), i.e. undefined behaviour in the parser, found by fuzz_scene. That happens for a
 // non-ASCII character outside strings and comments (never valid TOML 1.0: bare keys, numbers,
 // booleans and dates are ASCII) and right after a backslash in a basic string (escapes are
-// ASCII too). A quote inside a bare token (after '+', a digit, a letter) does not open a
-// string: the parser scans such a value up to the next whitespace. Returns the 1-based line of the
-// first such character and what it follows, or line 0 if there is none; non-ASCII text in strings
-// and comments is fine.
+// ASCII too), and also inside a value the parser scans as a bare word (a number, date or
+// boolean, up to the next whitespace, ']', '}', ',' or '#'): there a quote does not open a
+// string. Returns the 1-based line of the first such character and what it follows, or line
+// 0 if there is none; non-ASCII text in strings and comments is fine.
 std::pair<std::size_t, const char*> unsafe_non_ascii(std::string_view t) {
   enum class In { kCode, kComment, kBasic, kLiteral, kMultiBasic, kMultiLiteral } in = In::kCode;
   std::size_t line = 1;
   std::size_t i = t.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;  // a UTF-8 byte order mark
   auto high = [](char c) { return static_cast<unsigned char>(c) >= 0x80; };
-  // Characters after which a quote opens a string (key, value, array or table element).
-  auto token_start = [](char c) {
-    return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '=' || c == '[' || c == '{' ||
-           c == ',' || c == '.' || c == '\xBF';  // \xBF: the end of a byte order mark
-  };
   auto at = [&](std::size_t k, std::string_view s) { return t.substr(k, s.size()) == s; };
+  bool value_next = false;  // after '=', or '[' and ',' in an array: a value starts here
+  bool bare = false;        // inside a value scanned as a bare word
+  std::string open;         // the '[' of arrays and '{' of inline tables, innermost last
   for (; i < t.size(); ++i) {
     const char c = t[i];
     if (c == '\n')
@@ -84,17 +82,40 @@ std::pair<std::size_t, const char*> unsafe_non_ascii(std::string_view t) {
       case In::kCode:
         if (high(c))
           return {line, "outside a string or comment"};
+        if (bare) {
+          if (c != ' ' && c != '\t' && c != '\r' && c != '\n' && c != ']' && c != '}' && c != ',' &&
+              c != '#')
+            break;  // quotes too are characters of the word
+          bare = false;
+        }
         if (c == '#') {
           in = In::kComment;
-        } else if ((c == '"' || c == '\'') && i > 0 && !token_start(t[i - 1])) {
-          // Inside a bare token (e.g. +'...), where the parser scans a value up to the next
-          // whitespace without starting a string: the quote is one more character of it.
         } else if (c == '"') {
           in = at(i, "\"\"\"") ? In::kMultiBasic : In::kBasic;
           i += in == In::kMultiBasic ? 2 : 0;
+          value_next = false;
         } else if (c == '\'') {
           in = at(i, "'''") ? In::kMultiLiteral : In::kLiteral;
           i += in == In::kMultiLiteral ? 2 : 0;
+          value_next = false;
+        } else if (c == '=') {
+          value_next = true;
+        } else if (c == '[') {
+          if (value_next || (!open.empty() && open.back() == '['))
+            open += '[';  // an array (else a table header)
+          value_next = !open.empty() && open.back() == '[';
+        } else if (c == '{') {
+          open += '{';
+          value_next = false;
+        } else if (c == ']' || c == '}') {
+          if (!open.empty())
+            open.pop_back();
+          value_next = false;
+        } else if (c == ',') {
+          value_next = !open.empty() && open.back() == '[';
+        } else if (c != ' ' && c != '\t' && c != '\r' && c != '\n' && value_next) {
+          bare = true;
+          value_next = false;
         }
         break;
       case In::kComment:

@@ -83,6 +83,10 @@ TEST(Config, NonAsciiOutsideStringsIsRefusedBeforeTheParser) {
               Scene::parse("x = +'\xC3\x84'\n", "t.toml");
             }).find("t.toml:1: non-ASCII character outside a string or comment"),
             std::string::npos);
+  EXPECT_NE(error_of([] {
+              Scene::parse("N=[[[3+=[['[P\xEF\xBB\xBDP\n", "t.toml");
+            }).find("t.toml:1: non-ASCII character outside a string or comment"),
+            std::string::npos);
   const std::string escape = error_of([] { Scene::parse("s = \"a\\\xC2\xA7\"\n", "t.toml"); });
   EXPECT_NE(escape.find("t.toml:1: non-ASCII character right after a backslash"), std::string::npos)
       << escape;
@@ -100,6 +104,11 @@ TEST(Config, NonAsciiOutsideStringsIsRefusedBeforeTheParser) {
   EXPECT_EQ(out.text("a", ""), "\xC2\xA7");
   EXPECT_EQ(out.text("b", ""), "\xC2\xA7 \"\" \xC2\xA7\"");
   EXPECT_EQ(out.text("c", ""), "\xC2\xA7");
+  const Scene arrays = Scene::parse(
+      "[t]\nd = [[\"\xC2\xA7\", 1], [{k = '\xC2\xA7', \"\xC2\xA7\" = 2}], 3]\n[[u]]\n\"\xC2\xA7\" "
+      "= 1\n",
+      "t.toml");
+  EXPECT_NE(arrays.table("t"), nullptr);
 
   // An override that is not TOML because of such a character is taken as a string.
   Scene s = Scene::parse("[output]\n", "t.toml");
