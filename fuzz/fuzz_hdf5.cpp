@@ -1,6 +1,6 @@
 // HDF5 run files of `jamflow analyze`: the fuzz input written to a file and opened by both
-// table readers (each reads the run summary, then checks it for its analyses). InputError is the expected outcome of bad input;
-// anything else is a finding.
+// table readers (each reads the run summary, then checks it for its analyses). InputError is the
+// expected outcome of bad input; anything else is a finding.
 #include <cstdint>
 #include <cstdlib>
 

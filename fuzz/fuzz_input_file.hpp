@@ -14,8 +14,8 @@ namespace jamflow::fuzz {
 inline const std::string& scratch_path(const char* suffix) {
   static const std::string path = [&] {
     const char* dir = std::getenv("TMPDIR");
-    return std::string(dir && *dir ? dir : "/tmp") + "/jamflow-fuzz-" +
-           std::to_string(::getpid()) + suffix;
+    return std::string(dir && *dir ? dir : "/tmp") + "/jamflow-fuzz-" + std::to_string(::getpid()) +
+           suffix;
   }();
   return path;
 }
