@@ -49,7 +49,11 @@ run_one() {
   UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}" \
     nice -n 19 "$build_dir/fuzz_$t" "$corpus" "fuzz/corpus/$t" "${dict[@]}" \
       -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=65536 "${fork[@]}" \
-      -artifact_prefix="$findings/" -print_final_stats=1
+      -artifact_prefix="$findings/" -print_final_stats=1 || status=$?
+  # Each fuzzing process has its scratch input file; a crashed one leaves it behind. (A target
+  # running alongside simply writes its file again.)
+  rm -f "${TMPDIR:-/tmp}"/jamflow-fuzz-*
+  return "${status:-0}"
 }
 
 if [ "$target" = all ]; then
