@@ -321,7 +321,11 @@ std::int64_t read_int_attr(hid_t obj, const char* name, const std::string& where
   return value;
 }
 
-// Reads a string attribute stored either as variable- or fixed-length.
+// Longest fixed-length string attribute read (scenes are a few kB): a corrupt size field must
+// not become an allocation.
+constexpr std::size_t kMaxStringBytes = std::size_t{1} << 24;
+
+// Reads a string attribute stored either as variable- or fixed-length, one string.
 std::string read_string_attr(hid_t obj, const char* name, const std::string& where) {
   if (!has_attribute(obj, name))
     throw InputError(where + ": missing attribute '" + name + "'");
@@ -329,6 +333,13 @@ std::string read_string_attr(hid_t obj, const char* name, const std::string& whe
   Handle type(H5Aget_type(attr.get()), H5Tclose);
   if (H5Tget_class(type.get()) != H5T_STRING) {
     throw InputError(where + ": attribute '" + name + "' is not a string");
+  }
+  // H5Aread writes every element: the buffers below hold one string.
+  Handle space(H5Aget_space(attr.get()), H5Sclose);
+  const hssize_t count = H5Sget_simple_extent_npoints(space.get());
+  if (count != 1) {
+    throw InputError(where + ": attribute '" + name + "' holds " + std::to_string(count) +
+                     " strings; allowed: one string");
   }
   if (H5Tis_variable_str(type.get()) > 0) {
     Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
@@ -342,7 +353,11 @@ std::string read_string_attr(hid_t obj, const char* name, const std::string& whe
     H5free_memory(raw);
     return out;
   }
-  std::size_t size = H5Tget_size(type.get());
+  const std::size_t size = H5Tget_size(type.get());
+  if (size == 0 || size > kMaxStringBytes) {
+    throw InputError(where + ": attribute '" + name + "' is a string of " + std::to_string(size) +
+                     " bytes; allowed: 1 to " + std::to_string(kMaxStringBytes));
+  }
   std::string buf(size + 1, '\0');
   Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
   H5Tset_size(mem.get(), size + 1);

@@ -13,6 +13,7 @@
 #include "driver/run.hpp"
 #include "ensembles/registry.hpp"
 #include "integrators/registry.hpp"
+#include "lib/cli_exit.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "studies/study.hpp"
@@ -50,7 +51,7 @@ int run_command(const std::vector<std::string>& args) {
   app.add_option("--set", sets, "override a scene value: section.key=value (repeatable)");
   app.add_option("--threads", threads,
                  "OpenMP threads (default 1; 0 = all cores; overrides [run] threads)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0, 1024));  // as [run] threads; the message names the bounds
   app.add_option("--replicas", replicas, "independent replicas (overrides [run] replicas)")
       ->check(CLI::PositiveNumber);
   app.add_option(
@@ -66,7 +67,7 @@ int run_command(const std::vector<std::string>& args) {
   try {
     app.parse(rev);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return jamflow::parse_error_exit(app, e, "jamflow run");
   }
   jamflow::OutputOptions output;
   output.force = force;
@@ -164,6 +165,9 @@ int main(int argc, char** argv) {
   try {
     if (args.empty() || args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
       print_usage();
+      if (args.empty())
+        std::fprintf(stderr,
+                     "jamflow: error: no command given; allowed: run, scene, analyze, study\n");
       return args.empty() ? 2 : 0;
     }
     if (args[0] == "--version" || args[0] == "-V") {
@@ -186,10 +190,13 @@ int main(int argc, char** argv) {
                  cmd.c_str());
     return 2;
   } catch (const jamflow::ConfigError& e) {
-    std::fprintf(stderr, "jamflow: error: %s\n", e.what());
+    std::fprintf(stderr, "jamflow: error: %s\n", jamflow::one_line(e.what()).c_str());
+    return 2;
+  } catch (const jamflow::InputFileError& e) {  // a scene or init file that cannot be read
+    std::fprintf(stderr, "jamflow: error: %s\n", jamflow::one_line(e.what()).c_str());
     return 2;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "jamflow: error: %s\n", e.what());
+    std::fprintf(stderr, "jamflow: error: %s\n", jamflow::one_line(e.what()).c_str());
     return 1;
   }
 }

@@ -3,6 +3,8 @@
 
 #include <charconv>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -53,6 +55,113 @@ std::string ConfigSection::label(std::string_view key) const {
 }
 
 namespace {
+
+// Where toml++ 3.3 (Debian 12) would classify a non-ASCII character as whitespace or not: its
+// table of non-ASCII whitespace reaches __builtin_unreachable for most code points (upstream
+// issue #190), i.e. undefined behaviour in the parser, found by fuzz_scene. That happens for a
+// non-ASCII character outside strings and comments (never valid TOML 1.0: bare keys, numbers,
+// booleans and dates are ASCII) and right after a backslash in a basic string (escapes are
+// ASCII too), and also inside a value the parser scans as a bare word (a number, date or
+// boolean, up to the next whitespace, ']', '}', ',' or '#'): there a quote does not open a
+// string. Returns the 1-based line of the first such character and what it follows, or line
+// 0 if there is none; non-ASCII text in strings and comments is fine.
+std::pair<std::size_t, const char*> unsafe_non_ascii(std::string_view t) {
+  enum class In { kCode, kComment, kBasic, kLiteral, kMultiBasic, kMultiLiteral } in = In::kCode;
+  std::size_t line = 1;
+  std::size_t i = t.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0;  // a UTF-8 byte order mark
+  auto high = [](char c) { return static_cast<unsigned char>(c) >= 0x80; };
+  auto at = [&](std::size_t k, std::string_view s) { return t.substr(k, s.size()) == s; };
+  bool value_next = false;  // after '=', or '[' and ',' in an array: a value starts here
+  bool bare = false;        // inside a value scanned as a bare word
+  std::string open;         // the '[' of arrays and '{' of inline tables, innermost last
+  for (; i < t.size(); ++i) {
+    const char c = t[i];
+    if (c == '\n')
+      ++line;
+    switch (in) {
+      case In::kCode:
+        if (high(c))
+          return {line, "outside a string or comment"};
+        if (bare) {
+          if (c != ' ' && c != '\t' && c != '\r' && c != '\n' && c != ']' && c != '}' && c != ',' &&
+              c != '#')
+            break;  // quotes too are characters of the word
+          bare = false;
+        }
+        if (c == '#') {
+          in = In::kComment;
+        } else if (c == '"') {
+          in = at(i, "\"\"\"") ? In::kMultiBasic : In::kBasic;
+          i += in == In::kMultiBasic ? 2 : 0;
+          value_next = false;
+        } else if (c == '\'') {
+          in = at(i, "'''") ? In::kMultiLiteral : In::kLiteral;
+          i += in == In::kMultiLiteral ? 2 : 0;
+          value_next = false;
+        } else if (c == '=') {
+          value_next = true;
+        } else if (c == '[') {
+          if (value_next || (!open.empty() && open.back() == '['))
+            open += '[';  // an array (else a table header)
+          value_next = !open.empty() && open.back() == '[';
+        } else if (c == '{') {
+          open += '{';
+          value_next = false;
+        } else if (c == ']' || c == '}') {
+          if (!open.empty())
+            open.pop_back();
+          value_next = false;
+        } else if (c == ',') {
+          value_next = !open.empty() && open.back() == '[';
+        } else if (c != ' ' && c != '\t' && c != '\r' && c != '\n' && value_next) {
+          bare = true;
+          value_next = false;
+        }
+        break;
+      case In::kComment:
+        if (c == '\n')
+          in = In::kCode;
+        break;
+      case In::kLiteral:
+        if (c == '\'' || c == '\n')
+          in = In::kCode;
+        break;
+      case In::kBasic:
+      case In::kMultiBasic:
+        if (c == '\\') {
+          // An escape, or (multi-line) a line-ending backslash: the parser then skips
+          // whitespace and line breaks and looks at the first character after them.
+          std::size_t k = i + 1;
+          while (k < t.size() && (t[k] == ' ' || t[k] == '\t' || t[k] == '\r' ||
+                                  (in == In::kMultiBasic && t[k] == '\n'))) {
+            line += t[k] == '\n' ? 1 : 0;
+            ++k;
+          }
+          if (k < t.size() && high(t[k]))
+            return {line, "right after a backslash in a string"};
+          i = k > i + 1 ? k - 1 : k;  // an escaped character is not a closing quote
+        } else if (in == In::kBasic && (c == '"' || c == '\n')) {
+          in = In::kCode;
+        } else if (in == In::kMultiBasic && at(i, "\"\"\"")) {
+          i += 2;
+          while (i + 1 < t.size() && t[i + 1] == '"')  // up to two quotes end the string
+            ++i;
+          in = In::kCode;
+        }
+        break;
+      case In::kMultiLiteral:
+        if (at(i, "'''")) {
+          i += 2;
+          while (i + 1 < t.size() && t[i + 1] == '\'')
+            ++i;
+          in = In::kCode;
+        }
+        break;
+    }
+  }
+  return {0, ""};
+}
+
 std::string show(const toml::node& n) {
   std::ostringstream os;
   if (n.is_string()) {
@@ -199,6 +308,12 @@ void ConfigSection::finish() const {
 Scene Scene::parse(std::string_view text, std::string_view source) {
   Scene s;
   s.source_ = std::string(source);
+  if (const auto [line, where] = unsafe_non_ascii(text); line > 0) {
+    throw ConfigError(std::string(source) + ":" + std::to_string(line) + ": non-ASCII character " +
+                      where +
+                      "; allowed: ASCII there (keys, numbers, booleans, dates and escapes); "
+                      "any text inside quoted strings and comments");
+  }
   try {
     s.table_ = toml::parse(text, source);
   } catch (const toml::parse_error& e) {
@@ -209,11 +324,18 @@ Scene Scene::parse(std::string_view text, std::string_view source) {
 }
 
 Scene Scene::load(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw InputFileError("scene file '" + path + "' is a directory; allowed: a TOML file");
   std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw IoError("cannot open scene file '" + path + "'");
+  if (!in) {
+    throw InputFileError("cannot open scene file '" + path + "': " + std::strerror(errno) +
+                         "; allowed: a readable TOML file");
+  }
   std::ostringstream buf;
   buf << in.rdbuf();
+  if (in.bad())
+    throw InputFileError("cannot read scene file '" + path + "'; allowed: a readable TOML file");
   return parse(buf.str(), path);
 }
 
@@ -228,11 +350,17 @@ void Scene::set(std::string_view assignment) {
   const std::string key(assignment.substr(dot + 1, eq - dot - 1));
   const std::string value(assignment.substr(eq + 1));
   toml::table parsed;
-  try {
-    parsed = toml::parse("v = " + value);
-  } catch (const toml::parse_error&) {
-    parsed = toml::table{{"v", value}};  // bare word: a string
+  bool typed = false;
+  const std::string as_toml = "v = " + value;
+  if (unsafe_non_ascii(as_toml).first == 0) {  // else not TOML, and unsafe for toml++ 3.3
+    try {
+      parsed = toml::parse(as_toml);
+      typed = true;
+    } catch (const toml::parse_error&) {
+    }
   }
+  if (!typed)
+    parsed = toml::table{{"v", value}};  // bare word: a string
   toml::table* sec = table_[section].as_table();
   if (!sec) {
     if (table_.contains(section))

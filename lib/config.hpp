@@ -65,6 +65,7 @@ class Scene {
  public:
   // Parses TOML text; errors name the source and the line.
   static Scene parse(std::string_view text, std::string_view source);
+  // A scene file that cannot be opened or read is an InputFileError.
   static Scene load(const std::string& path);
 
   // Applies "section.key=value" (the value is read as TOML, else as a string).

@@ -23,4 +23,11 @@ class IoError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// An input the user named (scene, init configuration) cannot be opened or read: bad input,
+// like a ConfigError (exit status 2), where a failed output is an IoError (exit status 1).
+class InputFileError : public IoError {
+ public:
+  using IoError::IoError;
+};
+
 }  // namespace jamflow

@@ -14,13 +14,13 @@
 #include <fstream>
 #include <optional>
 #include <ostream>
-#include <set>
 #include <string_view>
 #include <system_error>
 #include <utility>
 #include <vector>
 
 #include "lib/error.hpp"
+#include "lib/neighbour_list.hpp"
 
 namespace jamflow {
 
@@ -81,6 +81,12 @@ std::optional<long long> parse_int(std::string_view s) {
   return v;
 }
 
+std::string fmt_radius(double v) {
+  std::string out;
+  append_number(out, v);
+  return out;
+}
+
 std::string shorten(std::string_view s) {
   constexpr std::size_t kMax = 60;
   if (s.size() <= kMax)
@@ -138,6 +144,18 @@ class Parser {
   std::string path_;
 };
 
+bool blank(std::string_view s) {
+  return std::all_of(s.begin(), s.end(), is_space);
+}
+
+// At most this many columns per row (over all Properties entries): a count of 10^9 would
+// otherwise allocate the column table before the first row is read.
+constexpr long long kMaxColumns = 1000;
+
+// Scaled coordinates beyond this many cell lengths are refused: they carry no digits of the
+// position inside the cell, and their image counters would overflow.
+constexpr double kMaxCellLengths = 1e6;
+
 struct Column {
   std::string name;  // as reported in errors: "pos y", "radius", "id"
   enum class Role { kSkip, kPosX, kPosY, kPosZ, kRadius } role = Role::kSkip;
@@ -148,18 +166,23 @@ struct Column {
 State read_xyz(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
-    throw IoError(path + ": is a directory, not a file");
+    throw InputFileError(path + ": is a directory, not a file");
+  // A device or pipe has no size to check the count against, and /dev/zero has no line end.
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw InputFileError(path + ": is not a regular file; allowed: an extended XYZ file");
   std::ifstream in(path);
   if (!in)
-    throw IoError(path + ": cannot open for reading: " + std::strerror(errno));
+    throw InputFileError(path + ": cannot open for reading: " + std::strerror(errno));
   const Parser p(path);
 
   std::string line;
   std::size_t line_no = 0;
+  std::uintmax_t consumed = 0;  // bytes read so far, line ends included
   auto next_line = [&]() -> bool {
     if (!std::getline(in, line))
       return false;
     ++line_no;
+    consumed += line.size() + 1;
     if (!line.empty() && line.back() == '\r')
       line.pop_back();  // files from Windows tools
     return true;
@@ -172,11 +195,15 @@ State read_xyz(const std::string& path) {
   if (!n_parsed || *n_parsed <= 0) {
     p.fail(1, "expected the particle count (a positive integer), got '" + shorten(line) + "'");
   }
+  if (*n_parsed > static_cast<long long>(NeighbourList::kMaxParticles)) {
+    p.fail(1, "particle count = " + std::to_string(*n_parsed) + " is too large; allowed: 1 to " +
+                  std::to_string(NeighbourList::kMaxParticles) + " (the neighbour-list limit)");
+  }
   const auto n = static_cast<std::size_t>(*n_parsed);
 
   if (!next_line())
     p.fail(2, "missing the comment line with Lattice= and Properties=");
-  std::optional<std::string> lattice_text, properties_text, time_text, strain_text;
+  std::optional<std::string> lattice_text, properties_text, time_text, strain_text, pbc_text;
   for (auto& [key, value] : p.key_values(line)) {
     const std::string k = lower(key);
     if (k == "lattice")
@@ -187,6 +214,22 @@ State read_xyz(const std::string& path) {
       time_text = value;
     if (k == "strain")
       strain_text = value;
+    if (k == "pbc")
+      pbc_text = value;
+  }
+
+  // Lees-Edwards cells are periodic in all three directions; a file meant for open
+  // boundaries would silently become a periodic system.
+  if (pbc_text) {
+    const auto flags = split_ws(*pbc_text);
+    const bool all_periodic =
+        flags.size() == 3 && std::all_of(flags.begin(), flags.end(), [](std::string_view f) {
+          return lower(f) == "t" || lower(f) == "true";
+        });
+    if (!all_periodic) {
+      p.fail(2, "pbc=\"" + shorten(*pbc_text) +
+                    "\" is not allowed; allowed: pbc=\"T T T\" (periodic in x, y and z) or no pbc");
+    }
   }
 
   // Cell.
@@ -247,6 +290,11 @@ State read_xyz(const std::string& path) {
         p.fail(2, "malformed Properties entry '" + spec +
                       "'; allowed: name:type:count with type S, R, I or L and count > 0");
       }
+      if (*count > kMaxColumns || static_cast<long long>(columns.size()) + *count > kMaxColumns) {
+        p.fail(2, "Properties entry '" + spec + "' makes more than " + std::to_string(kMaxColumns) +
+                      " columns; allowed: at most " + std::to_string(kMaxColumns) +
+                      " columns in all");
+      }
       const std::string key = lower(name);
       auto require = [&](const char* want_type, long long want_count, const char* want) {
         if (type != want_type || *count != want_count) {
@@ -291,6 +339,24 @@ State read_xyz(const std::string& path) {
     return *v;
   };
 
+  // Each row is at least one character per column, separated by spaces, with a newline: refuse
+  // a count the rest of the file cannot hold before allocating for it.
+  // (Counted from the lines read: tellg() is -1 once the header line ended the file.)
+  {
+    std::error_code size_ec;
+    const auto file_bytes = std::filesystem::file_size(path, size_ec);
+    if (!size_ec) {
+      const std::uintmax_t left = file_bytes > consumed ? file_bytes - consumed : 0;
+      const std::uintmax_t row_min = 2 * columns.size();
+      if (left + 1 < static_cast<std::uintmax_t>(n) * row_min) {
+        p.fail(1, "particle count = " + std::to_string(n) + " needs at least " + std::to_string(n) +
+                      " rows of " + std::to_string(columns.size()) + " columns, but only " +
+                      std::to_string(left) +
+                      " bytes follow the header; allowed: the number of particle rows");
+      }
+    }
+  }
+
   State state;
   state.resize(n);
   state.box.lx = lat[0];
@@ -327,6 +393,8 @@ State read_xyz(const std::string& path) {
     }
     Eigen::Vector3d r = Eigen::Vector3d::Zero();  // every column is set (checked above)
     double radius = 0.0;
+    std::size_t radius_column = 0;
+    std::array<std::size_t, 3> pos_column{};
     for (std::size_t c = 0; c < columns.size(); ++c) {
       const Column& col = columns[c];
       if (col.role == Column::Role::kSkip)
@@ -340,36 +408,86 @@ State read_xyz(const std::string& path) {
       switch (col.role) {
         case Column::Role::kPosX:
           r.x() = *v;
+          pos_column[0] = c;
           break;
         case Column::Role::kPosY:
           r.y() = *v;
+          pos_column[1] = c;
           break;
         case Column::Role::kPosZ:
           r.z() = *v;
+          pos_column[2] = c;
           break;
         case Column::Role::kRadius:
-          if (!(*v > 0.0))
-            p.fail(line_no, where + " must be > 0, got '" + shorten(tokens[c]) + "'");
           radius = *v;
+          radius_column = c;
           break;
         case Column::Role::kSkip:
           break;
       }
     }
+    // Species from the diameters, not the labels: other tools label the mixture differently.
+    // Only the two species of the model exist; a third size is not rounded to the nearer one.
+    const double d = 2.0 * radius;
+    if (std::abs(d - kSmallDiameter) <= kDiameterTolerance * kSmallDiameter) {
+      state.species[i] = 0;
+      state.diameter[i] = kSmallDiameter;
+    } else if (std::abs(d - kLargeDiameter) <= kDiameterTolerance * kLargeDiameter) {
+      state.species[i] = 1;
+      state.diameter[i] = kLargeDiameter;
+    } else {
+      p.fail(line_no, "column " + std::to_string(radius_column + 1) +
+                          " (radius) = " + shorten(tokens[radius_column]) +
+                          " is not a species radius; allowed: " + fmt_radius(0.5 * kSmallDiameter) +
+                          " or " + fmt_radius(0.5 * kLargeDiameter) + " (diameters " +
+                          fmt_radius(kSmallDiameter) + " and " + fmt_radius(kLargeDiameter) +
+                          ") within a relative " + fmt_radius(kDiameterTolerance));
+    }
     const Eigen::Vector3d s = h_inv * r;
+    if (!(s.cwiseAbs().maxCoeff() <= kMaxCellLengths)) {
+      p.fail(line_no, "position (" + shorten(tokens[pos_column[0]]) + ", " +
+                          shorten(tokens[pos_column[1]]) + ", " + shorten(tokens[pos_column[2]]) +
+                          ") lies " + fmt_radius(s.cwiseAbs().maxCoeff()) +
+                          " cell lengths from the cell; allowed: at most " +
+                          fmt_radius(kMaxCellLengths));
+    }
     state.x()[i] = s.x();
     state.y()[i] = s.y();
     state.z()[i] = s.z();
-    state.diameter[i] = 2.0 * radius;
   }
 
-  // Species from the diameters, not the labels: other tools label the mixture differently.
-  std::set<double> distinct(state.diameter.begin(), state.diameter.end());
-  const double split = 0.5 * (kSmallDiameter + kLargeDiameter);
-  for (std::size_t i = 0; i < n; ++i) {
-    const double d = state.diameter[i];
-    state.species[i] =
-        distinct.size() == 2 ? (d == *distinct.rbegin() ? 1 : 0) : (d < split ? 0 : 1);
+  // Nothing but blank lines may follow: more rows mean the count is wrong, another count
+  // line starts a second frame (this reader takes exactly one).
+  while (next_line()) {
+    if (blank(line))
+      continue;
+    const std::size_t first_extra = line_no;
+    const auto extra = split_ws(line);
+    const auto next_count = extra.size() == 1 ? parse_int(extra[0]) : std::nullopt;
+    if (!next_count || *next_count <= 0) {
+      p.fail(first_extra, "particle count = " + std::to_string(n) +
+                              " (line 1) but more particle rows follow; allowed: exactly " +
+                              std::to_string(n) + " particle rows, then only blank lines");
+    }
+    // Count the frames: each is a count line, a comment line and that many rows.
+    std::size_t frames = 1;
+    auto count = next_count;
+    while (count && *count > 0) {
+      ++frames;
+      for (long long k = 0; k <= *count && next_line(); ++k) {
+      }
+      count = std::nullopt;
+      while (next_line()) {
+        if (blank(line))
+          continue;
+        const auto t = split_ws(line);
+        count = t.size() == 1 ? parse_int(t[0]) : std::nullopt;
+        break;
+      }
+    }
+    p.fail(first_extra, "the file has " + std::to_string(frames) +
+                            " frames (frame 2 starts on line " + std::to_string(first_extra) +
+                            "); allowed: a single frame (e.g. cut out the one to start from)");
   }
 
   state.wrap();

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "lib/cli_exit.hpp"
 #include "lib/error.hpp"
 
 namespace jamflow::studies {
@@ -40,14 +41,14 @@ int study_main(const std::vector<std::string>& args) {
       ->check(CLI::IsMember({"quick", "standard", "paper"}));
   app.add_option("--out", opt.out_dir, "output folder (default out/<study>-<preset>)");
   app.add_option("--threads", opt.threads, "OpenMP threads (0 = all)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(CLI::Range(0, 1024));  // as [run] threads; the message names the bounds
   app.add_flag("--quiet", opt.quiet, "no progress lines");
   app.add_flag("--no-plots", opt.no_plots, "skip PNG plots");
   std::vector<std::string> rev(args.rbegin(), args.rend());
   try {
     app.parse(rev);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return parse_error_exit(app, e, "jamflow study");
   }
   for (const auto& s : registry()) {
     if (s.name == name) {

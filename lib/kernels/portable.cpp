@@ -79,7 +79,13 @@ void PortableBackend::pass(const Pair& pair, const State& state, const Neighbour
   const std::size_t capacity = kBlock * std::max<std::size_t>(1, list.max_row());
 
   ThreadSums sums(nt);
-  auto& [energy, vir, contacts, squared, drift2] = sums;
+  // Plain references, not a structured binding: clang before 16 cannot capture bindings in
+  // the parallel region (the fuzz build, fuzz/, uses Debian's clang 14).
+  auto& energy = sums.energy;
+  auto& vir = sums.virial;
+  auto& contacts = sums.contacts;
+  auto& squared = sums.squared;
+  auto& drift2 = sums.drift2;
   const bool have_ref = list.inner_reference().size() == state.pos.size();
   const double* ref = list.inner_reference().data();
 
@@ -95,7 +101,8 @@ void PortableBackend::pass(const Pair& pair, const State& state, const Neighbour
     // zeroes them, adds every pair force on them, and defers a force on a particle of another
     // thread's range (pairs across a range boundary, a thin layer of the cell order) to a
     // list that the owner adds after the barrier, in thread order.
-    const auto [lo, hi] = thread_range(start, n, tid, nthr);
+    const auto range = thread_range(start, n, tid, nthr);
+    const std::size_t lo = range.first, hi = range.second;
     if (have_ref)
       drift2[tid] = NeighbourList::max_displacement2(state, ref, lo, hi);
     std::fill(fx + lo, fx + hi, 0.0);

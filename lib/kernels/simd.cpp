@@ -629,7 +629,8 @@ bool SimdBackend::pass(const State& state, const NeighbourList& list, ForceResul
       used_threads = nthr;
       reused_ += reuse ? 1 : 0;
     }
-    const auto [lo, hi] = thread_range(start, n, tid, nthr);
+    const auto range = thread_range(start, n, tid, nthr);  // no binding: see portable.cpp
+    const std::size_t lo = range.first, hi = range.second;
     // Without a reference the displacement is not used (finish() reports it as infinite).
     const simd_detail::Rows rows_of{state.pos.data(),
                                     have_ref ? ref : state.pos.data(),

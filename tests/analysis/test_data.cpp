@@ -256,5 +256,61 @@ TEST(RunFileReader, MissingPiecesAreNamed) {
   expect_input_error([&] { read_granular({dir.file("nan.h5")}); }, {"nan.h5", "mu", "finite"});
 }
 
+// A string attribute holding several strings (found by fuzz_hdf5): the reader had room for one
+// and HDF5 wrote all of them past it.
+TEST(RunFileReader, StringArrayAttributesAreRejected) {
+  ScratchDir dir;
+  for (bool variable : {true, false}) {
+    const std::string path = dir.file(variable ? "va.h5" : "fa.h5");
+    RunSpec spec;
+    spec.variable_strings = variable;
+    write_run(path, spec);
+    hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    hid_t g = H5Gopen2(file, "summary", H5P_DEFAULT);
+    H5Adelete(g, "ensemble");
+    hid_t type = H5Tcopy(H5T_C_S1);
+    H5Tset_size(type, variable ? H5T_VARIABLE : 16);
+    const hsize_t dims[1] = {4};
+    hid_t space = H5Screate_simple(1, dims, nullptr);
+    hid_t attr = H5Acreate2(g, "ensemble", type, space, H5P_DEFAULT, H5P_DEFAULT);
+    if (variable) {
+      const char* v[4] = {"constant_volume", "constant_volume", "constant_volume", "x"};
+      H5Awrite(attr, type, v);
+    } else {
+      const char v[64] = "constant_volume\0constant_volume\0constant_volume\0x";
+      H5Awrite(attr, type, v);
+    }
+    H5Aclose(attr);
+    H5Sclose(space);
+    H5Tclose(type);
+    H5Gclose(g);
+    H5Fclose(file);
+    expect_input_error([&] { read_run_summary(path); },
+                       {path, "attribute 'ensemble'", "4 strings", "allowed: one string"});
+  }
+}
+
+// An attribute with no string in it and an absurd declared size: refused, where the reader
+// used to allocate the declared gigabyte first.
+TEST(RunFileReader, EmptyHugeFixedStringIsRejected) {
+  ScratchDir dir;
+  const std::string path = dir.file("huge.h5");
+  RunSpec spec;
+  spec.variable_strings = false;
+  write_run(path, spec);
+  hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  H5Adelete(file, "scene");
+  hid_t type = H5Tcopy(H5T_C_S1);
+  H5Tset_size(type, std::size_t{1} << 30);
+  hid_t space = H5Screate(H5S_NULL);  // no data stored, only the declared size
+  hid_t attr = H5Acreate2(file, "scene", type, space, H5P_DEFAULT, H5P_DEFAULT);
+  H5Aclose(attr);
+  H5Sclose(space);
+  H5Tclose(type);
+  H5Fclose(file);
+  expect_input_error([&] { read_run_summary(path); },
+                     {path, "attribute 'scene' holds 0 strings; allowed: one string"});
+}
+
 }  // namespace
 }  // namespace jamflow::analysis

@@ -66,6 +66,56 @@ TEST(Config, SyntaxErrorNamesTheLine) {
   EXPECT_NE(e.find("bad.toml:2"), std::string::npos) << e;
 }
 
+// toml++ 3.3 reaches undefined behaviour classifying most non-ASCII characters as whitespace
+// or not (found by fuzz_scene): they are refused where TOML allows only ASCII.
+TEST(Config, NonAsciiOutsideStringsIsRefusedBeforeTheParser) {
+  EXPECT_EQ(error_of([] { Scene::parse("[system]\nN = 1\xCF\x87\n", "t.toml"); }),
+            "t.toml:2: non-ASCII character outside a string or comment; allowed: ASCII there "
+            "(keys, numbers, booleans, dates and escapes); any text inside quoted strings and "
+            "comments");
+  const std::string after_backslash =
+      error_of([] { Scene::parse("x = 1\ns = \"\"\"\\\n\xC2\xA7\"\"\"\n", "t.toml"); });
+  EXPECT_NE(after_backslash.find("t.toml:3: non-ASCII character right after a backslash"),
+            std::string::npos)
+      << after_backslash;
+  // A quote in the middle of a value does not start a string (the parser scans on).
+  EXPECT_NE(error_of([] {
+              Scene::parse("x = +'\xC3\x84'\n", "t.toml");
+            }).find("t.toml:1: non-ASCII character outside a string or comment"),
+            std::string::npos);
+  EXPECT_NE(error_of([] {
+              Scene::parse("N=[[[3+=[['[P\xEF\xBB\xBDP\n", "t.toml");
+            }).find("t.toml:1: non-ASCII character outside a string or comment"),
+            std::string::npos);
+  const std::string escape = error_of([] { Scene::parse("s = \"a\\\xC2\xA7\"\n", "t.toml"); });
+  EXPECT_NE(escape.find("t.toml:1: non-ASCII character right after a backslash"), std::string::npos)
+      << escape;
+
+  // Text in comments and strings of every kind stays allowed, and quotes inside strings do
+  // not end them early.
+  const Scene ok = Scene::parse(
+      "\xEF\xBB\xBF# Kolb\xE2\x80\x93"
+      "D\xC3\xBCnweg piston\n[output]\n"
+      "file = \"r\xC3\xA9sum\xC3\xA9 \\\" # \xC3\xBC.h5\" # \xC2\xA7\n"
+      "a = '\xC2\xA7'\nb = \"\"\"\n\xC2\xA7 \"\" \xC2\xA7\"\"\"\"\nc = '''\xC2\xA7'''\n",
+      "t.toml");
+  ConfigSection out = ok.section("output");
+  EXPECT_EQ(out.text("file", ""), "r\xC3\xA9sum\xC3\xA9 \" # \xC3\xBC.h5");
+  EXPECT_EQ(out.text("a", ""), "\xC2\xA7");
+  EXPECT_EQ(out.text("b", ""), "\xC2\xA7 \"\" \xC2\xA7\"");
+  EXPECT_EQ(out.text("c", ""), "\xC2\xA7");
+  const Scene arrays = Scene::parse(
+      "[t]\nd = [[\"\xC2\xA7\", 1], [{k = '\xC2\xA7', \"\xC2\xA7\" = 2}], 3]\n[[u]]\n\"\xC2\xA7\" "
+      "= 1\n",
+      "t.toml");
+  EXPECT_NE(arrays.table("t"), nullptr);
+
+  // An override that is not TOML because of such a character is taken as a string.
+  Scene s = Scene::parse("[output]\n", "t.toml");
+  s.set("output.file=\xC3\xBC.h5");
+  EXPECT_EQ(s.section("output").text("file", ""), "\xC3\xBC.h5");
+}
+
 TEST(Config, UnknownSection) {
   Scene s = Scene::parse("[sytem]\nN = 3\n", "t.toml");
   const std::string e = error_of([&] { s.check_sections({"system"}); });

@@ -198,7 +198,10 @@ TEST_F(XyzTest, RejectsBadParticleCount) {
 
 TEST_F(XyzTest, RejectsTooFewParticleLines) {
   const std::string path =
-      write_text("short.xyz", std::string("5\n") + kHeader + "A 1 1 1 0.5\nB 2 2 2 0.7\n");
+      // Rows long enough that the byte count could hold 5 rows: the reader finds the end.
+      write_text("short.xyz",
+                 std::string("5\n") + kHeader +
+                     "A 1.0000000000000000000 1 1 0.5\nB 2.0000000000000000000 2 2 0.7\n");
   EXPECT_THROW(read_xyz(path), ConfigError);
   EXPECT_NE(config_error(path).find(path + ":5: expected 5 particle lines"), std::string::npos)
       << config_error(path);
@@ -251,7 +254,127 @@ TEST_F(XyzTest, RejectsNonPositiveRadius) {
   const std::string path = write_text(
       "neg.xyz", std::string("3\n") + kHeader + "A 1 1 1 0.5\nA 2 2 2 0.5\nA 3 3 3 -0.5\n");
   EXPECT_THROW(read_xyz(path), ConfigError);
-  EXPECT_EQ(config_error(path), path + ":5: column 5 (radius) must be > 0, got '-0.5'");
+  EXPECT_EQ(config_error(path), path +
+                                    ":5: column 5 (radius) = -0.5 is not a species radius; "
+                                    "allowed: 0.5 or 0.7 (diameters 1 and 1.4) within a "
+                                    "relative 1e-06");
+}
+
+TEST_F(XyzTest, RejectsMoreRowsThanTheCount) {
+  std::string text = std::string("99\n") + kHeader;
+  for (int i = 0; i < 100; ++i)
+    text += "A 1 1 1 0.5\n";
+  const std::string path = write_text("extra.xyz", text);
+  EXPECT_EQ(config_error(path), path +
+                                    ":102: particle count = 99 (line 1) but more particle rows "
+                                    "follow; allowed: exactly 99 particle rows, then only blank "
+                                    "lines");
+}
+
+TEST_F(XyzTest, TrailingBlankLinesAreFine) {
+  const std::string path =
+      write_text("blank.xyz", std::string("2\n") + kHeader + "A 1 1 1 0.5\nB 2 2 2 0.7\n\n  \n");
+  EXPECT_EQ(read_xyz(path).size(), 2u);
+}
+
+TEST_F(XyzTest, RejectsMultiFrameFiles) {
+  const std::string frame = std::string("2\n") + kHeader + "A 1 1 1 0.5\nB 2 2 2 0.7\n";
+  const std::string path = write_text("traj.xyz", frame + frame + "\n" + frame);
+  EXPECT_EQ(config_error(path), path +
+                                    ":5: the file has 3 frames (frame 2 starts on line 5); "
+                                    "allowed: a single frame (e.g. cut out the one to start "
+                                    "from)");
+}
+
+TEST_F(XyzTest, RejectsAThirdSpeciesRadius) {
+  const std::string path = write_text(
+      "third.xyz", std::string("3\n") + kHeader + "A 1 1 1 0.5\nB 2 2 2 0.7\nC 3 3 3 0.63\n");
+  EXPECT_EQ(config_error(path), path +
+                                    ":5: column 5 (radius) = 0.63 is not a species radius; "
+                                    "allowed: 0.5 or 0.7 (diameters 1 and 1.4) within a "
+                                    "relative 1e-06");
+}
+
+TEST_F(XyzTest, SpeciesRadiiWithinToleranceSnapToTheDiameters) {
+  // Labels are ignored: species come from the sizes, and only the sizes of the model exist.
+  const std::string path =
+      write_text("tol.xyz", std::string("3\n") + kHeader +
+                                "B 1 1 1 0.5000001\nA 2 2 2 0.6999999\nA 3 3 3 0.7\n");
+  const State s = read_xyz(path);
+  EXPECT_EQ(s.diameter, (std::vector<double>{kSmallDiameter, kLargeDiameter, kLargeDiameter}));
+  EXPECT_EQ(s.species, (std::vector<std::uint8_t>{0, 1, 1}));
+  // Only large particles: still species 1, not relabelled as the smaller one.
+  const std::string large =
+      write_text("large.xyz", std::string("2\n") + kHeader + "A 1 1 1 0.7\nA 2 2 2 0.7\n");
+  EXPECT_EQ(read_xyz(large).species, (std::vector<std::uint8_t>{1, 1}));
+}
+
+TEST_F(XyzTest, RejectsNonPeriodicDirections) {
+  const std::string rows = "A 1 1 1 0.5\n";
+  const std::string lattice =
+      "Lattice=\"6 0 0 0 6 0 0 0 6\" Properties=species:S:1:pos:R:3:radius:R:1 ";
+  const std::string open_path = write_text("open.xyz", "1\n" + lattice + "pbc=\"F F F\"\n" + rows);
+  EXPECT_EQ(config_error(open_path), open_path +
+                                         ":2: pbc=\"F F F\" is not allowed; allowed: pbc=\"T T "
+                                         "T\" (periodic in x, y and z) or no pbc");
+  const std::string slab = write_text("slab.xyz", "1\n" + lattice + "pbc=\"T T F\"\n" + rows);
+  EXPECT_NE(config_error(slab).find(":2: pbc=\"T T F\" is not allowed"), std::string::npos)
+      << config_error(slab);
+  const std::string two = write_text("two.xyz", "1\n" + lattice + "pbc=\"T T\"\n" + rows);
+  EXPECT_NE(config_error(two).find("is not allowed"), std::string::npos) << config_error(two);
+  const std::string periodic =
+      write_text("periodic.xyz", "1\n" + lattice + "pbc=\"T T T\"\n" + rows);
+  EXPECT_EQ(read_xyz(periodic).size(), 1u);
+}
+
+TEST_F(XyzTest, RejectsCountsAboveTheListLimitBeforeAllocating) {
+  const std::string path =
+      write_text("huge.xyz", std::string("1000000000000\n") + kHeader + "A 1 1 1 0.5\n");
+  EXPECT_EQ(config_error(path), path +
+                                    ":1: particle count = 1000000000000 is too large; allowed: "
+                                    "1 to 134217727 (the neighbour-list limit)");
+  const std::string exp = write_text("exp.xyz", std::string("1e12\n") + kHeader + "A 1 1 1 0.5\n");
+  EXPECT_NE(config_error(exp).find(":1: expected the particle count (a positive integer), got "
+                                   "'1e12'"),
+            std::string::npos)
+      << config_error(exp);
+}
+
+TEST_F(XyzTest, RejectsCountsTheFileCannotHold) {
+  // Below the list limit, but 100 million rows cannot fit in the few bytes that follow.
+  const std::string path =
+      write_text("big.xyz", std::string("100000000\n") + kHeader + "A 1 1 1 0.5\nA 2 2 2 0.5\n");
+  EXPECT_EQ(config_error(path), path +
+                                    ":1: particle count = 100000000 needs at least 100000000 "
+                                    "rows of 5 columns, but only 24 bytes follow the header; "
+                                    "allowed: the number of particle rows");
+  // The file ends with the header line itself (found by fuzz_xyz: the check was skipped and
+  // 14 million particles were allocated).
+  const std::string bare = write_text(
+      "bare.xyz",
+      "14010042\nLattice=\"6 0 0 0 6 0 0 0 6\" Properties=species:S:1:pos:R:3:radius:R:1");
+  EXPECT_NE(config_error(bare).find(":1: particle count = 14010042 needs at least 14010042 rows "
+                                    "of 5 columns, but only 0 bytes follow the header"),
+            std::string::npos)
+      << config_error(bare);
+}
+
+TEST_F(XyzTest, RejectsHugePropertyCounts) {
+  const std::string path =
+      write_text("props.xyz",
+                 "1\nLattice=\"6 0 0 0 6 0 0 0 6\" "
+                 "Properties=species:S:1:pos:R:3:radius:R:1:junk:R:1000000000\nA 1 1 1 0.5\n");
+  EXPECT_NE(config_error(path).find(":2: Properties entry 'junk:R:1000000000' makes more than "
+                                    "1000 columns"),
+            std::string::npos)
+      << config_error(path);
+}
+
+TEST_F(XyzTest, RejectsPositionsFarOutsideTheCell) {
+  const std::string path =
+      write_text("far.xyz", std::string("1\n") + kHeader + "A 1e300 1 1 0.5\n");
+  EXPECT_NE(config_error(path).find(":3: position (1e300, 1, 1) lies "), std::string::npos)
+      << config_error(path);
 }
 
 TEST_F(XyzTest, RejectsStrainThatDisagreesWithTilt) {
@@ -272,6 +395,17 @@ TEST_F(XyzTest, MissingFileIsIoError) {
     read_xyz(path);
   } catch (const IoError& e) {
     EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(XyzTest, DevicesAreNotXyzFiles) {
+  // /dev/zero has no size and no line end: reading it would never finish.
+  try {
+    read_xyz("/dev/zero");
+    ADD_FAILURE() << "no InputFileError";
+  } catch (const InputFileError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "/dev/zero: is not a regular file; allowed: an extended XYZ file");
   }
 }
 

@@ -1,0 +1,30 @@
+// What the command lines do with a CLI11 parse error (header only; for targets that use
+// CLI11): --help and --help-all print and exit 0, everything else is bad usage, reported on
+// one line with exit status 2 (README "Exit status").
+#pragma once
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <string>
+
+namespace jamflow {
+
+// The message with line breaks turned into spaces: errors are one line on stderr.
+inline std::string one_line(std::string text) {
+  for (char& c : text) {
+    if (c == '\n' || c == '\r')
+      c = ' ';
+  }
+  while (!text.empty() && text.back() == ' ')
+    text.pop_back();
+  return text;
+}
+
+inline int parse_error_exit(const CLI::App& app, const CLI::ParseError& e, const char* program) {
+  if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success))
+    return app.exit(e);  // help or version: printed to stdout
+  std::fprintf(stderr, "%s: error: %s (see `%s --help`)\n", program, one_line(e.what()).c_str(),
+               program);
+  return 2;
+}
+
+}  // namespace jamflow
