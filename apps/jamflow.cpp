@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <exception>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -96,13 +97,21 @@ int run_command(const std::vector<std::string>& args) {
                       "output.checkpoint_every"
                     : "run.threads (a continued run keeps its scene)"));
     }
-    const jamflow::H5Reader file(from);
-    scene = jamflow::Scene::parse(file.attr_string("/", "scene"), from);
-    const std::string status = file.attr_string("/", "status");
+    // A file that is not a run's (or not there) is bad input, named with its option.
+    std::optional<jamflow::H5Reader> opened;
+    std::string status;
+    try {
+      opened.emplace(from);
+      scene = jamflow::Scene::parse(opened->attr_string("/", "scene"), from);
+      status = opened->attr_string("/", "status");
+      output.continue_from = jamflow::read_checkpoint(*opened);
+    } catch (const jamflow::IoError& e) {
+      throw jamflow::ConfigError(std::string(extend ? "--extend" : "--resume") + " '" + from +
+                                 "': " + e.what() + "; allowed a jamflow run file");
+    }
     if (extend && status != "complete")
       throw jamflow::ConfigError("--extend '" + from + "': the run's status is \"" + status +
                                  "\"; allowed finished runs (continue others with --resume)");
-    output.continue_from = jamflow::read_checkpoint(file);
     output.extend = extend;
     const std::string out = extend ? from : from.substr(0, from.size() - part.size());
     scene.set("output.file=\"" + out + "\"");
