@@ -1,6 +1,7 @@
 // The verdicts' numerics (driver/verdicts.hpp).
 #include "driver/verdicts.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -158,7 +159,20 @@ double trend_t(const std::vector<double>& means) {
   // Constant to round-off: no trend.
   if (!(tss > 1e-28 * my * my * double(n)) && tss == tss)
     return 0.0;
-  const double se = std::sqrt(rss / double(n - 2) / sxx);
+  // Block means shorter than the correlation time are correlated, which makes a wandering
+  // series look like a trend: the residuals' lag-1 autocorrelation r (clamped to [0, 0.9])
+  // inflates the slope's variance by (1 + r) / (1 - r), the AR(1) correction.
+  double c0 = 0.0, c1 = 0.0;
+  std::vector<double> res(n);
+  for (std::size_t k = 0; k < n; ++k)
+    res[k] = means[k] - my - slope * (double(k) - mx);
+  for (std::size_t k = 0; k < n; ++k) {
+    c0 += res[k] * res[k];
+    if (k + 1 < n)
+      c1 += res[k] * res[k + 1];
+  }
+  const double r = c0 > 0.0 ? std::clamp(c1 / c0, 0.0, 0.9) : 0.0;
+  const double se = std::sqrt(rss / double(n - 2) / sxx * (1.0 + r) / (1.0 - r));
   if (!(se > 0.0))
     return slope == 0.0 ? 0.0 : std::copysign(std::numeric_limits<double>::infinity(), slope);
   return slope / se;

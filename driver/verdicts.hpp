@@ -3,10 +3,12 @@
 //
 // - steady: no significant trend of the block means of phi, sigma_xy and P_hat across the
 //   averaging window. The test: the least-squares slope of the block means against the block
-//   index, divided by its standard error from the residual scatter, is a Student t with
-//   blocks - 2 degrees of freedom for independent blocks without a trend; |t| > 4 fails
-//   (p < 0.001 per observable at 20 blocks, so a healthy run fails by chance about once in
-//   300). An observable that is constant (phi at constant volume) passes.
+//   index, divided by its standard error from the residual scatter (inflated by (1 + r) /
+//   (1 - r) for a lag-1 autocorrelation r of the residuals, as blocks shorter than tau are
+//   correlated), is a Student t with blocks - 2 degrees of freedom for independent blocks
+//   without a trend; |t| > 4 fails (p < 0.001 per observable at 20 blocks, so a healthy run
+//   fails by chance about once in 300). An observable that is constant (phi at constant
+//   volume) passes.
 // - stable: the energy balance (below) within max(0.05, 3 sigma) of 1, and no step-to-step
 //   oscillation of the forces (StepCorrelation over consecutive integrator steps at each sample
 //   of the window: correlation below 0.9, a period-2 share of the force power above 5%, fails).
