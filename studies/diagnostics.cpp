@@ -284,6 +284,8 @@ std::string verdict_name(Verdict v) {
       return "not available";
     case Verdict::kIncomplete:
       return "incomplete";
+    case Verdict::kNotSteady:
+      return "not steady";
   }
   return "?";
 }
@@ -366,7 +368,8 @@ double DiagnosedRun::value(const std::string& key) const {
 std::string DiagnosedRun::verdict_text() const {
   switch (cls.verdict) {
     case Verdict::kStable:
-      return cls.laned ? "stable, lanes" : "stable";
+      return std::string("stable") + (cls.laned ? ", lanes" : "") +
+             (cls.correlated ? ", blocks < 2 tau" : "");
     case Verdict::kOscillating:
       return std::string("oscillating (") + cls.reason + ")" + (cls.laned ? ", lanes" : "");
     case Verdict::kDiverged: {
@@ -379,6 +382,8 @@ std::string DiagnosedRun::verdict_text() const {
       return "not available (" + unavailable + ")";
     case Verdict::kIncomplete:
       return "incomplete (" + cls.reason + ")";
+    case Verdict::kNotSteady:
+      return "not steady (" + cls.reason + ")";
   }
   return "?";
 }
@@ -485,6 +490,19 @@ DiagnosedRun execute(const RunRequest& request, const Thresholds& thresholds) {
     }
   }
   d.cls = classify(d.result, d.balance, ok && request.window ? &d.window : nullptr, thresholds);
+  // The run's own verdicts: a stable run whose window still drifts is kept out of conclusions;
+  // one whose blocks are shorter than 2 tau is flagged.
+  const auto& verdicts = d.result.summary.verdicts;
+  const auto failed = [&](const char* name) {
+    const auto it = verdicts.find(name);
+    return it != verdicts.end() && it->second.rfind("fail: ", 0) == 0 ? it->second.substr(6)
+                                                                      : std::string();
+  };
+  if (d.cls.verdict == Verdict::kStable && !failed("steady").empty()) {
+    d.cls.verdict = Verdict::kNotSteady;
+    d.cls.reason = failed("steady");
+  }
+  d.cls.correlated = !failed("decorrelated").empty();
   return d;
 }
 
@@ -529,6 +547,7 @@ void write_diagnosed(H5Writer& out, const std::string& group, const DiagnosedRun
   out.attr(group, "verdict_text", r.verdict_text());
   out.attr(group, "reason", r.cls.reason);
   out.attr(group, "laned", static_cast<std::int64_t>(r.cls.laned));
+  out.attr(group, "correlated", static_cast<std::int64_t>(r.cls.correlated));
   out.attr(group, "status", r.result.status);
   out.attr(group, "scene", r.scene_text);
   out.attr(group, "dt", r.dt);

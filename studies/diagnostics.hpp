@@ -104,7 +104,10 @@ WindowResult diagnostic_window(const RunSpec& spec, const State& start,
                                const WindowOptions& options);
 
 // kIncomplete: interrupted by the study's CPU-time budget for one run (too slow to finish).
-enum class Verdict { kStable, kOscillating, kDiverged, kNotAvailable, kIncomplete };
+// kNotSteady: stable, but the run's own steady verdict (driver/verdicts.hpp) failed: its
+// averaging window still drifts. Like every verdict but kStable, it keeps the point out of a
+// study's conclusions, and the report says why.
+enum class Verdict { kStable, kOscillating, kDiverged, kNotAvailable, kIncomplete, kNotSteady };
 std::string verdict_name(Verdict v);
 
 struct Thresholds {
@@ -118,6 +121,9 @@ struct Classification {
   Verdict verdict = Verdict::kStable;
   std::string reason;  // what triggered the verdict, or what was checked
   bool laned = false;
+  // The run's decorrelated verdict failed (blocks shorter than 2 tau): its block errors are too
+  // small. Flagged in the reports ("stable, blocks < 2 tau"); the point is not excluded.
+  bool correlated = false;
 };
 
 // ---- A diagnosed run ------------------------------------------------------------------------
