@@ -122,8 +122,10 @@ std::vector<double> run_interrupted(const std::string& text, const std::string& 
     RunOptions opt;
     opt.control = &control;
     opt.label = file.substr(0, file.size() - 3);
-    std::jthread timer([&control, delay](std::stop_token token) {
-      const auto until = std::chrono::steady_clock::now() + delay;
+    // Each start gets longer before its stop, so that a slow machine (sanitizers) still ends.
+    const auto wait = delay * (1 + attempt / 8);
+    std::jthread timer([&control, wait](std::stop_token token) {
+      const auto until = std::chrono::steady_clock::now() + wait;
       while (!token.stop_requested() && std::chrono::steady_clock::now() < until)
         std::this_thread::sleep_for(std::chrono::milliseconds(1));
       if (!token.stop_requested())
