@@ -167,6 +167,10 @@ struct EnsembleRuns {
   // The block std depends on the block length against the correlation times (which differ
   // between the ensembles), so it is also given for 10 and 40 blocks: mean over replicas.
   std::map<int, double> eta_block_std_by_blocks;
+  // Replicas left out of the comparison because their steady verdict failed ("replica k:
+  // why"); all are kept, with a warning in the report, if none is steady.
+  std::vector<std::string> excluded;
+  bool none_steady = false;
 };
 
 constexpr int kBlockCounts[] = {10, 20, 40};
@@ -182,8 +186,23 @@ std::vector<double> eta_window(const RunSpec& spec, const Series& series) {
 }
 
 void finish_ensemble(EnsembleRuns& e) {
+  // Only steady replicas enter the comparison (driver/verdicts.hpp).
+  std::vector<const ReplicaResult*> used;
+  for (std::size_t k = 0; k < e.runs.size(); ++k) {
+    const auto it = e.runs[k].summary.verdicts.find("steady");
+    if (it != e.runs[k].summary.verdicts.end() && it->second.rfind("fail: ", 0) == 0)
+      e.excluded.push_back("replica " + std::to_string(k) + ": " + it->second.substr(6));
+    else
+      used.push_back(&e.runs[k]);
+  }
+  if (used.empty()) {
+    e.none_steady = true;
+    for (const auto& r : e.runs)
+      used.push_back(&r);
+  }
   std::vector<Summary> sums;
-  for (const auto& r : e.runs) {
+  for (const ReplicaResult* rp : used) {
+    const ReplicaResult& r = *rp;
     sums.push_back(r.summary);
     e.eta_block_std.push_back(r.summary.values.at("eta_block_std"));
     e.phi_block_std.push_back(r.summary.values.at("phi_block_std"));
@@ -199,9 +218,9 @@ void finish_ensemble(EnsembleRuns& e) {
   e.phi_spread = ra.replica_std;
   for (int nb : kBlockCounts) {
     double sum = 0.0;
-    for (const auto& r : e.runs)
-      sum += block_average(eta_window(e.spec, r.series), std::size_t(nb)).block_std;
-    e.eta_block_std_by_blocks[nb] = sum / double(e.runs.size());
+    for (const ReplicaResult* r : used)
+      sum += block_average(eta_window(e.spec, r->series), std::size_t(nb)).block_std;
+    e.eta_block_std_by_blocks[nb] = sum / double(used.size());
   }
 }
 
@@ -222,6 +241,8 @@ void write_ensemble(H5Writer& w, const EnsembleRuns& e) {
   for (const auto& [k, v] : e.combined.values)
     w.attr(g, k, v);
   w.attr(g, "eta_block_std_mean", e.eta_block_std_mean);
+  w.attr(g, "excluded_not_steady",
+         static_cast<std::int64_t>(e.none_steady ? 0 : e.excluded.size()));
   w.attr(g, "phi_block_std_mean", e.phi_block_std_mean);
   w.attr(g, "phi_spread_over_replicas", e.phi_spread);
   w.dataset(g + "/eta_block_std", e.eta_block_std);
@@ -425,6 +446,22 @@ int run_ensemble_study(const StudyOptions& options) {
          " constant pressure; std of phi over three runs ~3e-4.\n\n"
       << "Here: block std of eta NV/NP = " << num(eta_ratio, 3)
       << "; std of phi over replicas (NP) = " << num(np.phi_spread, 3) << ".\n\n";
+  rep << "## Verdicts\n\n";
+  for (const EnsembleRuns* e : {&np, &nv}) {
+    if (e->excluded.empty()) {
+      rep << "- " << e->name << ": every replica is steady (no trend of phi, sigma_xy, P_hat "
+          << "across the blocks).\n";
+      continue;
+    }
+    rep << "- " << e->name << ": "
+        << (e->none_steady ? "**Warning**: no replica is steady, so all are kept and the "
+                             "comparison above is not a conclusion. "
+                           : "left out of the comparison above as not steady: ");
+    for (std::size_t k = 0; k < e->excluded.size(); ++k)
+      rep << (k ? "; " : "") << e->excluded[k];
+    rep << ".\n";
+  }
+  rep << "\n";
   rep << "## Correlation times and block length\n\n"
       << "Integrated autocorrelation times (tau_0) over the replicas, against the block length "
          "t_av / 20; block errors are trustworthy when a block spans at least 2 tau.\n\n";

@@ -2,6 +2,9 @@
 // the HDF5 files and (with Debian's python3) the plot, and its numbers are sensible.
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <iterator>
+
 #include <unistd.h>
 #include <cmath>
 #include <cstdlib>
@@ -48,7 +51,15 @@ TEST(EnsembleStudy, QuickPresetWritesTablePlotAndSensibleNumbers) {
     EXPECT_GT(fs::file_size(dir / "timeseries.png"), 10000u);
   }
 
+  // The report says which replicas were steady, and leaves out those that were not.
+  {
+    std::ifstream in(dir / "report.md");
+    const std::string report((std::istreambuf_iterator<char>(in)), {});
+    EXPECT_NE(report.find("## Verdicts"), std::string::npos);
+  }
   H5Reader h((dir / "ensemble.h5").string());
+  for (const char* e : {"/constant_pressure", "/constant_volume"})
+    RecordProperty(std::string("excluded") + e, int(h.attr_int(e, "excluded_not_steady")));
   const double p = h.attr_double("/", "pressure");
   EXPECT_DOUBLE_EQ(p, 1e-5);
   const double np_std = h.attr_double("/table", "eta_block_std_np");
