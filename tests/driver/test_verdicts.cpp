@@ -163,6 +163,10 @@ TEST(SceneChecks, DtIsNeverChangedSilently) {
             "[run] sample_every = 1 is not a whole number of [integrator] dt = 0.3 (3.33333 "
             "steps); allowed multiples of dt, such as 0.9, or set [run] round_sample_every = true");
   EXPECT_NE(config_error(base, {"integrator.dt=100"}).find("(0.01 steps)"), std::string::npos);
+  // A sampling interval far below dt (the ETA of 2025 hours) is the same error.
+  EXPECT_NE(config_error(base, {"run.sample_every=1e-9"})
+                .find("[run] sample_every = 1e-09 is not a whole number of [integrator] dt"),
+            std::string::npos);
   // Asked for: sample_every becomes 3 steps, dt stays, and the stored scene says so.
   const RunSpec r = spec_of(base, {"integrator.dt=0.3", "run.round_sample_every=true"});
   EXPECT_EQ(r.sample_every, 3 * 0.3);
