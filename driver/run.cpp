@@ -838,17 +838,7 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
         // The forces of the step before this sample, and of the sample itself.
         before = model.last_evaluation().forces.force;
         record(t_rel);
-        const std::vector<double>& now = model.last_evaluation().forces.force;
-        if (before.size() == now.size()) {
-          double cross = 0.0, norm = 0.0;
-          for (std::size_t i = 0; i < now.size(); ++i) {
-            cross += before[i] * now[i];
-            norm += 0.5 * (before[i] * before[i] + now[i] * now[i]);
-          }
-          res.steps.cross += cross;
-          res.steps.norm += norm;
-          ++res.steps.pairs;
-        }
+        res.steps.add(before, model.last_evaluation().forces.force);
       } else {
         record(t_rel);
       }

@@ -97,6 +97,7 @@ struct Summary {
 struct StepPairs {
   double cross = 0.0, norm = 0.0;
   std::int64_t pairs = 0;
+  void add(const std::vector<double>& before, const std::vector<double>& now);  // verdicts.cpp
   double correlation() const { return norm > 0.0 ? cross / norm : 1.0; }
 };
 

@@ -20,22 +20,6 @@ void StepCorrelation::add(const std::vector<double>& v) {
       return;
     }
   }
-  accumulate(prev_, v);
-  prev_ = v;
-}
-
-void StepCorrelation::add_pair(const std::vector<double>& a, const std::vector<double>& b) {
-  for (const auto* v : {&a, &b})
-    for (double x : *v)
-      if (!std::isfinite(x)) {
-        finite_ = false;
-        return;
-      }
-  accumulate(a, b);
-  prev_.clear();
-}
-
-void StepCorrelation::accumulate(const std::vector<double>& prev_, const std::vector<double>& v) {
   if (!prev_.empty() && prev_.size() == v.size()) {
     double cross = 0.0, norm = 0.0;
     std::size_t reversed = 0;
@@ -56,6 +40,20 @@ void StepCorrelation::accumulate(const std::vector<double>& prev_, const std::ve
     reversed_ += groups > 0 ? double(reversed) / double(groups) : 0.0;
     ++pairs_;
   }
+  prev_ = v;
+}
+
+void StepPairs::add(const std::vector<double>& before, const std::vector<double>& now) {
+  if (before.size() != now.size())
+    return;
+  double c = 0.0, n = 0.0;
+  for (std::size_t i = 0; i < now.size(); ++i) {
+    c += before[i] * now[i];
+    n += 0.5 * (before[i] * before[i] + now[i] * now[i]);
+  }
+  cross += c;
+  norm += n;
+  ++pairs;
 }
 
 double StepCorrelation::correlation() const {

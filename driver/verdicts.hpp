@@ -35,8 +35,6 @@ class StepCorrelation {
  public:
   explicit StepCorrelation(std::size_t group = 3) : group_(group) {}
   void add(const std::vector<double>& v);
-  // One pair of consecutive steps (a, then b), unrelated to the vectors added before.
-  void add_pair(const std::vector<double>& a, const std::vector<double>& b);
   std::size_t pairs() const { return pairs_; }
   double correlation() const;        // c; 1 with fewer than 2 vectors
   double alternating_share() const;  // (1 - c) / 2
@@ -44,7 +42,6 @@ class StepCorrelation {
   bool finite() const { return finite_; }
 
  private:
-  void accumulate(const std::vector<double>& a, const std::vector<double>& b);
   std::size_t group_;
   std::vector<double> prev_;
   double cross_ = 0.0, norm_ = 0.0, reversed_ = 0.0;

@@ -19,6 +19,7 @@
 #include "driver/run.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
+#include "tests/driver/temp_dir.hpp"
 
 extern char** environ;
 
@@ -27,20 +28,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class TempDir {
+// Each test's files in a directory of its own.
+class TempDir : public testing_support::TempDir {
  public:
-  TempDir() {
-    path_ = fs::temp_directory_path() /
-            ("jamflow-ckpt-" + std::to_string(::getpid()) + "-" +
-             ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  fs::path path_;
+  TempDir() : testing_support::TempDir("jamflow-ckpt-") {}
 };
 
 // A small sheared system with Lees-Edwards remaps (strain 1 every ~7 time units at this box)

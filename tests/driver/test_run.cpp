@@ -13,26 +13,17 @@
 #include "lib/forces.hpp"
 #include "lib/h5.hpp"
 #include "lib/xyz.hpp"
+#include "tests/driver/temp_dir.hpp"
 
 namespace jamflow {
 namespace {
 
 namespace fs = std::filesystem;
 
-class TempDir {
+// Each test's files in a directory of its own.
+class TempDir : public testing_support::TempDir {
  public:
-  TempDir() {
-    path_ = fs::temp_directory_path() /
-            ("jamflow-run-" + std::to_string(::getpid()) + "-" +
-             ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  fs::path path_;
+  TempDir() : testing_support::TempDir("jamflow-run-") {}
 };
 
 std::string scene_text(int n, double phi, double rate, double dt, double t_eq, double t_av,
