@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "analysis/analyze_cli.hpp"
+#include "apps/sweep_command.hpp"
 #include "driver/checkpoint.hpp"
 #include "driver/run.hpp"
 #include "ensembles/registry.hpp"
@@ -154,6 +155,9 @@ void print_usage() {
       "              [--force] [--resume OUT.h5.part | --extend OUT.h5 --set run.t_av=T]\n"
       "  jamflow scene                       print the embedded default scene\n"
       "  jamflow analyze {hard-sphere|soft|olsson-teitel} DATA... -o OUT.json\n"
+      "  jamflow sweep SWEEP.toml [--out DIR] [-j K] [--dry-run] [--collect TABLE.csv]\n"
+      "              [--slurm [--array-size M] [--time HH:MM:SS]] [--task K --array-size M]\n"
+      "  mpirun -n R jamflow sweep SWEEP.toml   the points farmed over R MPI ranks\n"
       "  jamflow study NAME --preset {quick|standard|paper}\n"
       "  jamflow --version | --help\n\n"
       "Each command takes --help.\n",
@@ -175,8 +179,9 @@ int main(int argc, char** argv) {
     if (args.empty() || args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
       print_usage();
       if (args.empty())
-        std::fprintf(stderr,
-                     "jamflow: error: no command given; allowed: run, scene, analyze, study\n");
+        std::fprintf(
+            stderr,
+            "jamflow: error: no command given; allowed: run, scene, sweep, analyze, study\n");
       return args.empty() ? 2 : 0;
     }
     if (args[0] == "--version" || args[0] == "-V") {
@@ -193,9 +198,12 @@ int main(int argc, char** argv) {
     }
     if (cmd == "analyze")
       return jamflow::analysis::analyze_main(rest);
+    if (cmd == "sweep")
+      return jamflow::apps::sweep_command(rest);
     if (cmd == "study")
       return jamflow::studies::study_main(rest);
-    std::fprintf(stderr, "jamflow: unknown command '%s'; allowed: run, scene, analyze, study\n",
+    std::fprintf(stderr,
+                 "jamflow: unknown command '%s'; allowed: run, scene, sweep, analyze, study\n",
                  cmd.c_str());
     return 2;
   } catch (const jamflow::ConfigError& e) {

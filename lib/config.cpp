@@ -361,6 +361,15 @@ void Scene::set(std::string_view assignment) {
   }
   if (!typed)
     parsed = toml::table{{"v", value}};  // bare word: a string
+  set_value(section + "." + key, *parsed.get("v"));
+}
+
+void Scene::set_value(std::string_view key_path, const toml::node& value) {
+  const auto dot = key_path.find('.');
+  if (dot == std::string_view::npos || dot == 0 || dot + 1 >= key_path.size())
+    throw ConfigError("'" + std::string(key_path) + "' must look like section.key");
+  const std::string section(key_path.substr(0, dot));
+  const std::string key(key_path.substr(dot + 1));
   toml::table* sec = table_[section].as_table();
   if (!sec) {
     if (table_.contains(section))
@@ -368,7 +377,7 @@ void Scene::set(std::string_view assignment) {
     table_.insert(section, toml::table{});
     sec = table_[section].as_table();
   }
-  sec->insert_or_assign(key, *parsed.get("v"));
+  sec->insert_or_assign(key, value);
 }
 
 void Scene::check_sections(const std::vector<std::string>& allowed) const {

@@ -70,6 +70,8 @@ class Scene {
 
   // Applies "section.key=value" (the value is read as TOML, else as a string).
   void set(std::string_view assignment);
+  // Sets "section.key" to a typed TOML value (no text round trip: doubles stay exact).
+  void set_value(std::string_view key_path, const toml::node& value);
   // Sections must be among these; each gets its ConfigSection.
   void check_sections(const std::vector<std::string>& allowed) const;
   ConfigSection section(const std::string& name) const;

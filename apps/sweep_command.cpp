@@ -1,0 +1,152 @@
+#include "apps/sweep_command.hpp"
+
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <thread>
+
+#include "lib/cli_exit.hpp"
+#include "lib/error.hpp"
+#include "lib/progress.hpp"
+#include "sweep/collect.hpp"
+#include "sweep/execute.hpp"
+#include "sweep/mpi.hpp"
+#include "sweep/plan.hpp"
+#include "sweep/slurm.hpp"
+
+namespace jamflow::apps {
+namespace {
+
+std::atomic<int> g_stop{0};
+std::atomic<bool> g_checkpoint{false};
+extern "C" void on_sweep_signal(int sig) {
+  if (sig == SIGUSR1)
+    g_checkpoint.store(true);
+  else
+    g_stop.store(sig);
+}
+
+// Measured explicit Euler throughput on one core (README "Benchmark"), for the CPU-hour
+// estimate of --dry-run: RESPA's sub-steps and CVODE cost more per step, so it is a floor.
+constexpr double kSecondsPerParticleStep = 25e-9;
+
+void print_dry_run(const sweep::Plan& plan) {
+  const auto tasks = plan.tasks();
+  double cost = 0.0;
+  for (const auto& t : tasks)
+    cost += t.cost;
+  std::printf("sweep %s: %zu points x %lld replicas = %zu runs -> %s\n", plan.name.c_str(),
+              plan.points.size(), static_cast<long long>(plan.replicas), tasks.size(),
+              plan.out_dir.c_str());
+  std::printf("  %-48s %8s %12s  %s\n", "point", "N", "steps x N", "state");
+  for (const auto& p : plan.points) {
+    std::string states;
+    for (const auto& t : tasks) {
+      if (t.point == p.index)
+        states += std::string(states.empty() ? "" : ",") + sweep::state_name(sweep::probe(plan, t));
+    }
+    std::printf("  %-48s %8lld %12.3g  %s\n", p.name.c_str(), static_cast<long long>(p.n), p.cost,
+                states.c_str());
+  }
+  std::printf(
+      "  expected work: %.3g particle-steps, about %.3g CPU-hours at %.0f ns per "
+      "particle-step (explicit Euler's throughput; RESPA and CVODE cost more)\n",
+      cost, cost * kSecondsPerParticleStep / 3600.0, kSecondsPerParticleStep * 1e9);
+}
+
+}  // namespace
+
+int sweep_command(const std::vector<std::string>& args) {
+  CLI::App app{"Run a sweep of state points: a base scene and the axes to vary (TOML).",
+               "jamflow sweep"};
+  std::string sweep_path, out_dir, collect_path, time = "24:00:00", partition;
+  int jobs = 0, task = -1, array_size = 0, cpus = 1, signal_seconds = 300;
+  bool slurm = false, dry_run = false, quiet = false;
+  app.add_option("sweep", sweep_path, "sweep file (TOML)")->required();
+  app.add_option("--out", out_dir, "output folder (default: <sweep stem>.sweep beside the file)");
+  app.add_option("-j,--jobs", jobs, "points run at once, one thread each (default: the cores)")
+      ->check(CLI::Range(1, 4096));
+  app.add_flag("--dry-run", dry_run, "list the points, their state and the expected cost");
+  app.add_option("--collect", collect_path,
+                 "write one row per finished point to TABLE.csv (read by `jamflow analyze`)");
+  app.add_flag("--slurm", slurm, "write DIR/sweep.sbatch, a Slurm job array for the sweep");
+  app.add_option("--array-size", array_size,
+                 "Slurm array tasks (--slurm; default one per run, at most 1000), or the array "
+                 "that --task belongs to")
+      ->check(CLI::Range(1, 100000));
+  app.add_option("--task", task, "run only this array task's share of the points (0-based)")
+      ->check(CLI::Range(0, 99999));
+  app.add_option("--time", time, "Slurm time limit of each array task (--slurm)");
+  app.add_option("--partition", partition, "Slurm partition (--slurm)");
+  app.add_option("--cpus-per-task", cpus, "points at once in each array task (--slurm)")
+      ->check(CLI::Range(1, 4096));
+  app.add_option("--signal-seconds", signal_seconds,
+                 "Slurm sends TERM this long before the time limit (--slurm)")
+      ->check(CLI::Range(10, 65535));
+  app.add_flag("-q,--quiet", quiet, "no progress line");
+  std::vector<std::string> rev(args.rbegin(), args.rend());
+  try {
+    app.parse(rev);
+  } catch (const CLI::ParseError& e) {
+    return parse_error_exit(app, e, "jamflow sweep");
+  }
+  if (task >= 0 && array_size == 0)
+    throw ConfigError("--task " + std::to_string(task) + " needs --array-size M; allowed both");
+  if (task >= array_size && task >= 0)
+    throw ConfigError("--task " + std::to_string(task) + " with --array-size " +
+                      std::to_string(array_size) + "; allowed 0 to " +
+                      std::to_string(array_size - 1));
+  if (slurm)
+    sweep::check_slurm_time(time);
+  const sweep::Plan plan = sweep::load_plan(sweep_path, out_dir);
+  if (dry_run) {
+    print_dry_run(plan);
+    return 0;
+  }
+  if (!collect_path.empty()) {
+    const sweep::Collected c = sweep::collect(plan, collect_path);
+    std::printf("%s: %zu of %zu points\n", collect_path.c_str(), c.rows, plan.points.size());
+    for (const auto& why : c.left_out)
+      std::fprintf(stderr, "sweep: left out %s\n", why.c_str());
+    return 0;
+  }
+  if (slurm) {
+    sweep::SlurmOptions so;
+    so.array_size = array_size;
+    so.time = time;
+    so.cpus_per_task = cpus;
+    so.signal_seconds = signal_seconds;
+    so.partition = partition;
+    so.exe = sweep::self_exe();
+    sweep::prepare_out_dir(plan);
+    std::filesystem::create_directories(std::filesystem::path(plan.out_dir) / "slurm");
+    const std::string script = (std::filesystem::path(plan.out_dir) / "sweep.sbatch").string();
+    sweep::write_atomically(script, sweep::slurm_script(plan, so));
+    std::printf("%s\nsubmit it with: sbatch %s\n", script.c_str(), script.c_str());
+    return 0;
+  }
+  for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGUSR1})
+    std::signal(sig, on_sweep_signal);
+  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  if (sweep::mpi_launched()) {
+    if (task >= 0)
+      throw ConfigError("--task under mpirun; allowed one of them (MPI ranks share all points)");
+    return sweep::run_mpi(plan, jobs > 0 ? jobs : 1, quiet, sweep::self_exe(), &g_stop,
+                          &g_checkpoint);
+  }
+  std::vector<std::size_t> share;
+  if (task >= 0) {
+    share = sweep::array_share(plan.tasks(), task, array_size);
+    if (share.empty()) {
+      std::fprintf(stderr, "sweep %s: array task %d of %d has no points\n", plan.name.c_str(), task,
+                   array_size);
+      return 0;
+    }
+  }
+  return sweep::run_local(plan, jobs > 0 ? jobs : cores, share, quiet, sweep::self_exe(), &g_stop,
+                          &g_checkpoint);
+}
+
+}  // namespace jamflow::apps

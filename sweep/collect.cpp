@@ -1,0 +1,154 @@
+#include "sweep/collect.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "driver/run.hpp"
+#include "lib/error.hpp"
+#include "lib/h5.hpp"
+#include "sweep/execute.hpp"
+
+namespace jamflow::sweep {
+namespace fs = std::filesystem;
+
+namespace {
+
+// The /summary of one replica file, as the driver wrote it.
+Summary read_summary(const std::string& file) {
+  H5Reader r(file);
+  Summary s;
+  for (const auto& name : r.attr_names("/summary")) {
+    if (name.rfind("verdict_", 0) == 0) {
+      s.verdicts[name.substr(8)] = r.attr_string("/summary", name);
+      continue;
+    }
+    try {
+      s.values[name] = r.attr_double("/summary", name);
+    } catch (const std::exception&) {
+      // strings (ensemble, integrator, texts) and integers are taken from the scene
+    }
+  }
+  return s;
+}
+
+std::string cell(double v) {
+  if (std::isnan(v))
+    return "";
+  return fmt(v);
+}
+
+std::string csv_text(std::string s) {
+  for (char& c : s) {
+    if (c == ',' || c == '\n' || c == '\r' || c == '"')
+      c = ';';
+  }
+  return s;
+}
+
+}  // namespace
+
+Collected collect(const Plan& plan, const std::string& path) {
+  const std::string ext = fs::path(path).extension().string();
+  if (ext != ".csv")
+    throw ConfigError("--collect '" + path + "': allowed a table file ending in .csv");
+  Collected out;
+  const auto tasks = plan.tasks();
+  std::vector<std::vector<const Task*>> of_point(plan.points.size());
+  for (const auto& t : tasks)
+    of_point[t.point].push_back(&t);
+
+  struct Row {
+    const Point* point;
+    RunSpec spec;
+    Summary sum;
+  };
+  std::vector<Row> rows;
+  bool all_cp = true;
+  for (const auto& p : plan.points) {
+    auto& ts = of_point[p.index];
+    std::sort(ts.begin(), ts.end(), [](auto a, auto b) { return a->replica < b->replica; });
+    std::vector<Summary> sums;
+    std::string why;
+    for (const Task* t : ts) {
+      std::string detail;
+      const TaskState s = probe(plan, *t, &detail);
+      if (s != TaskState::kDone) {
+        why = std::string("r").append(std::to_string(t->replica)).append(" ").append(state_name(s));
+        if (!detail.empty())
+          why.append(" (").append(detail).append(")");
+        break;
+      }
+      sums.push_back(read_summary(plan.task_file(*t)));
+    }
+    if (!why.empty()) {
+      out.left_out.push_back(p.name + ": " + why);
+      continue;
+    }
+    Row row{&p, parse_run_spec(plan.task_scene(*ts.front())), {}};
+    row.sum = sums.size() > 1 ? combine_replicas(sums) : sums.front();
+    all_cp = all_cp && row.spec.ensemble->imposed_pressure().has_value();
+    rows.push_back(std::move(row));
+  }
+
+  std::vector<std::string> header = {"point"};
+  for (const auto& a : plan.axes)
+    header.push_back(a);
+  for (const char* c : {"ensemble", "N"})
+    header.push_back(c);
+  if (all_cp && !rows.empty())
+    header.push_back("P");
+  const std::vector<std::string> observables = {"phi", "pressure", "sigma_xy", "eta", "mu"};
+  header.push_back("gdot");
+  for (const auto& o : observables) {
+    header.push_back(o);
+    header.push_back(o + "_err");
+  }
+  for (const char* c :
+       {"J", "energy_balance", "replicas", "steady", "stable", "decorrelated", "folder"})
+    header.push_back(c);
+
+  std::ostringstream os;
+  for (std::size_t i = 0; i < header.size(); ++i)
+    os << (i ? "," : "") << header[i];
+  os << "\n";
+  for (const auto& row : rows) {
+    const auto& v = row.sum.values;
+    auto get = [&](const std::string& k) {
+      const auto it = v.find(k);
+      return it == v.end() ? std::nan("") : it->second;
+    };
+    const bool several = get("replicas") > 1.5;
+    std::vector<std::string> cells = {row.point->name};
+    for (const auto& [k, val] : row.point->values)
+      cells.push_back(csv_text(val));
+    cells.push_back(row.spec.ensemble->name());
+    cells.push_back(std::to_string(row.point->n));
+    if (all_cp)
+      cells.push_back(fmt(*row.spec.ensemble->imposed_pressure()));
+    cells.push_back(fmt(row.spec.shear_rate));
+    for (const auto& o : observables) {
+      cells.push_back(cell(get(o)));
+      double err = get(o + "_err");
+      if (several)
+        err = std::max(err, get(o + "_replica_err"));
+      cells.push_back(cell(err));
+    }
+    cells.push_back(cell(get("J")));
+    cells.push_back(cell(get("energy_balance")));
+    cells.push_back(std::to_string(several ? static_cast<long long>(get("replicas")) : 1LL));
+    for (const char* verdict : {"steady", "stable", "decorrelated"})
+      cells.push_back(cell(get(verdict)));
+    cells.push_back(csv_text(fs::relative(plan.point_dir(*row.point), plan.out_dir).string()));
+    for (std::size_t i = 0; i < cells.size(); ++i)
+      os << (i ? "," : "") << cells[i];
+    os << "\n";
+  }
+  write_atomically(path, os.str());
+  out.rows = rows.size();
+  return out;
+}
+
+}  // namespace jamflow::sweep

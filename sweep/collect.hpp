@@ -1,0 +1,25 @@
+// Gathering a sweep's finished points into one table, one row per point (its replicas
+// combined), in the CSV form that `jamflow analyze` reads as it is.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "sweep/plan.hpp"
+
+namespace jamflow::sweep {
+
+struct Collected {
+  std::size_t rows = 0;
+  std::vector<std::string> left_out;  // points not finished in every replica, with why
+};
+
+// Columns: point, one per varied key, ensemble, N, P (the imposed pressure; only when every
+// row is at constant pressure, so that analyze reads the table as granular data), gdot, phi,
+// pressure, sigma_xy, eta, mu (each with _err), J, energy_balance, replicas, steady, stable,
+// decorrelated (1 pass, 0 fail, empty not checked), folder. With several replicas each _err is
+// the larger of the block error propagated to the mean and the replica scatter error
+// (std / sqrt(R)): the block error alone is too small when blocks are short (README).
+// `path` ends in .csv. Throws IoError if it cannot be written (atomically).
+Collected collect(const Plan& plan, const std::string& path);
+
+}  // namespace jamflow::sweep

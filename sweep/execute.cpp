@@ -1,0 +1,499 @@
+#include "sweep/execute.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/file.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <thread>
+
+#include "lib/error.hpp"
+#include "lib/h5.hpp"
+#include "lib/progress.hpp"
+
+extern char** environ;
+
+namespace jamflow::sweep {
+namespace fs = std::filesystem;
+
+namespace {
+
+double now_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+std::string read_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream buf;
+  buf << in.rdbuf();
+  return buf.str();
+}
+
+}  // namespace
+
+void write_atomically(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.flush();
+    if (!out)
+      throw IoError("cannot write '" + tmp + "'");
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec)
+    throw IoError("cannot rename '" + tmp + "' to '" + path + "': " + ec.message());
+}
+
+namespace {
+
+std::string status_of(const std::string& file) {
+  try {
+    H5Reader r(file);
+    return r.has_attr("/", "status") ? r.attr_string("/", "status") : "";
+  } catch (const std::exception& e) {
+    return std::string("unreadable: ") + e.what();
+  }
+}
+
+}  // namespace
+
+const char* state_name(TaskState s) {
+  switch (s) {
+    case TaskState::kWaiting:
+      return "waiting";
+    case TaskState::kCheckpointed:
+      return "checkpointed";
+    case TaskState::kRunning:
+      return "running";
+    case TaskState::kDone:
+      return "done";
+    case TaskState::kFailed:
+      return "failed";
+    case TaskState::kBusyElsewhere:
+      return "running elsewhere";
+  }
+  return "?";
+}
+
+TaskState probe(const Plan& plan, const Task& task, std::string* detail) {
+  const std::string file = plan.task_file(task);
+  std::error_code ec;
+  if (fs::exists(file, ec)) {
+    const std::string status = status_of(file);
+    if (detail)
+      *detail = status;
+    return status == "complete" ? TaskState::kDone : TaskState::kFailed;
+  }
+  if (fs::exists(file + ".part", ec)) {
+    const std::string status = status_of(file + ".part");
+    if (detail)
+      *detail = status;
+    if (status.rfind("failed", 0) == 0 || status.rfind("unreadable", 0) == 0)
+      return TaskState::kFailed;
+    return TaskState::kCheckpointed;
+  }
+  return TaskState::kWaiting;
+}
+
+void prepare_out_dir(const Plan& plan) {
+  std::error_code ec;
+  fs::create_directories(fs::path(plan.out_dir) / "points", ec);
+  if (ec)
+    throw ConfigError("--out '" + plan.out_dir + "': cannot create it (" + ec.message() +
+                      "); allowed a writable folder");
+  for (const auto& p : plan.points) {
+    const std::string text = p.scene.text();
+    const std::string file = plan.scene_file(p);
+    if (fs::exists(file, ec)) {
+      if (read_text(file) != text) {
+        throw ConfigError("sweep point " + p.name + ": its scene differs from the one in '" + file +
+                          "' that its files were run with; allowed the same scene, or "
+                          "another --out folder");
+      }
+      continue;
+    }
+    fs::create_directories(plan.point_dir(p), ec);
+    if (ec)
+      throw ConfigError("--out '" + plan.out_dir + "': cannot create '" + plan.point_dir(p) +
+                        "' (" + ec.message() + ")");
+    write_atomically(file, text);
+  }
+}
+
+std::string self_exe() {
+  std::error_code ec;
+  const auto p = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string("jamflow") : p.string();
+}
+
+// ---- Coordinator ------------------------------------------------------------------------------
+
+Coordinator::Coordinator(const Plan& plan, std::vector<std::size_t> share, int slots, bool quiet)
+    : plan_(plan),
+      tasks_(plan.tasks()),
+      slots_(std::max(1, slots)),
+      quiet_(quiet),
+      tty_(isatty(STDERR_FILENO) != 0),
+      t0_(now_seconds()) {
+  if (share.empty()) {
+    for (std::size_t i = 0; i < tasks_.size(); ++i)
+      share.push_back(i);
+  }
+  state_.assign(tasks_.size(), TaskState::kWaiting);
+  why_.assign(tasks_.size(), "");
+  started_at_.assign(tasks_.size(), 0.0);
+  std::vector<bool> mine(tasks_.size(), false);
+  for (auto i : share)
+    mine[i] = true;
+  for (std::size_t i = 0; i < tasks_.size(); ++i) {
+    state_[i] = probe(plan_, tasks_[i], &why_[i]);
+    if (!mine[i])
+      continue;
+    if (state_[i] == TaskState::kDone) {
+      ++skipped_;
+    } else if (state_[i] == TaskState::kFailed) {
+      ++failed_;
+    } else {
+      queue_.push_back(i);
+    }
+    ++total_;
+  }
+}
+
+std::optional<std::size_t> Coordinator::take() {
+  if (next_ >= queue_.size())
+    return std::nullopt;
+  return queue_[next_++];
+}
+
+void Coordinator::started(std::size_t task) {
+  state_[task] = TaskState::kRunning;
+  started_at_[task] = now_seconds();
+  ++running_;
+  tick();
+}
+
+void Coordinator::finished(std::size_t task, TaskState state, double wall, const std::string& why) {
+  if (state_[task] == TaskState::kRunning)
+    --running_;
+  state_[task] = state;
+  why_[task] = why;
+  if (state == TaskState::kDone) {
+    ++done_;
+    done_cost_ += tasks_[task].cost;
+    done_wall_ += wall;
+  } else if (state == TaskState::kFailed) {
+    ++failed_;
+  }
+  const Point& p = plan_.points[tasks_[task].point];
+  if (!quiet_ && state != TaskState::kDone) {
+    std::fprintf(stderr, "%ssweep: %s r%lld %s%s%s\n", tty_ ? "\r\033[K" : "", p.name.c_str(),
+                 static_cast<long long>(tasks_[task].replica), state_name(state),
+                 why.empty() ? "" : ": ", why.c_str());
+  }
+  last_print_ = -1.0;
+  tick();
+  write_manifest();
+}
+
+int Coordinator::remaining() const {
+  int n = 0;
+  for (std::size_t i = next_; i < queue_.size(); ++i)
+    ++n;
+  return n + running_;
+}
+
+std::string Coordinator::line() const {
+  const double elapsed = now_seconds() - t0_;
+  // ETA from the scheduled work: the tasks not started, plus what the running ones have left,
+  // at the rate (expected cost per worker-second) of the tasks finished so far.
+  double eta = NAN;
+  if (done_wall_ > 0.0 && done_cost_ > 0.0) {
+    const double rate = done_cost_ / done_wall_;
+    double left = 0.0;
+    for (std::size_t i = next_; i < queue_.size(); ++i)
+      left += tasks_[queue_[i]].cost;
+    for (std::size_t i = 0; i < tasks_.size(); ++i) {
+      if (state_[i] == TaskState::kRunning)
+        left += std::max(0.0, tasks_[i].cost - rate * (now_seconds() - started_at_[i]));
+    }
+    eta = left / (rate * double(slots_));
+  }
+  const int waiting = static_cast<int>(queue_.size() - next_);
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "sweep %s: %d/%zu done%s, %d running, %d failed, %d waiting  elapsed %s  ETA %s",
+                plan_.name.c_str(), done_ + skipped_, total_,
+                skipped_ > 0 ? (" (" + std::to_string(skipped_) + " from before)").c_str() : "",
+                running_, failed_, waiting, format_duration(elapsed).c_str(),
+                format_duration(eta).c_str());
+  return buf;
+}
+
+void Coordinator::tick() {
+  if (quiet_)
+    return;
+  const double now = now_seconds();
+  // On a terminal the line is redrawn every second; in a log, a line at each change.
+  if (tty_ ? (last_print_ >= 0.0 && now - last_print_ < 1.0) : last_print_ >= 0.0)
+    return;
+  last_print_ = now;
+  std::fprintf(stderr, "%s%s%s", tty_ ? "\r\033[K" : "", line().c_str(), tty_ ? "" : "\n");
+  std::fflush(stderr);
+}
+
+void Coordinator::final_line() {
+  if (quiet_)
+    return;
+  std::fprintf(stderr, "%s%s\n", tty_ ? "\r\033[K" : "", line().c_str());
+}
+
+void Coordinator::write_manifest() {
+  toml::table root;
+  toml::table head;
+  head.insert("file", fs::absolute(plan_.path).lexically_normal().string());
+  head.insert("points", static_cast<std::int64_t>(plan_.points.size()));
+  head.insert("replicas", plan_.replicas);
+  toml::array axes;
+  for (const auto& a : plan_.axes)
+    axes.push_back(a);
+  head.insert("axes", std::move(axes));
+  const std::time_t t = std::time(nullptr);
+  char when[64];
+  std::strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+  head.insert("updated", std::string(when));
+  root.insert("sweep", std::move(head));
+  // One entry per point, with a state per replica.
+  std::vector<std::vector<std::size_t>> of_point(plan_.points.size());
+  for (std::size_t i = 0; i < tasks_.size(); ++i)
+    of_point[tasks_[i].point].push_back(i);
+  toml::array points;
+  for (const auto& p : plan_.points) {
+    toml::table e;
+    e.insert("name", p.name);
+    e.insert("index", static_cast<std::int64_t>(p.index));
+    toml::table keys;
+    for (const auto& [k, v] : p.values) {
+      const auto dot = k.find('.');
+      const toml::table* sec = p.scene.table(k.substr(0, dot));
+      if (sec && sec->get(k.substr(dot + 1)))
+        keys.insert(k, *sec->get(k.substr(dot + 1)));
+    }
+    e.insert("keys", std::move(keys));
+    e.insert("N", p.n);
+    e.insert("folder", fs::path("points").append(p.name).string());
+    auto tasks = of_point[p.index];
+    std::sort(tasks.begin(), tasks.end(),
+              [&](auto a, auto b) { return tasks_[a].replica < tasks_[b].replica; });
+    toml::array states, files, details;
+    bool all_done = true, any_failed = false, any_started = false;
+    for (auto i : tasks) {
+      states.push_back(std::string(state_name(state_[i])));
+      files.push_back(fs::relative(plan_.task_file(tasks_[i]), plan_.out_dir).string());
+      details.push_back(why_[i]);
+      all_done = all_done && state_[i] == TaskState::kDone;
+      any_failed = any_failed || state_[i] == TaskState::kFailed;
+      any_started = any_started || state_[i] != TaskState::kWaiting;
+    }
+    e.insert("state", std::string(all_done      ? "done"
+                                  : any_failed  ? "failed"
+                                  : any_started ? "started"
+                                                : "waiting"));
+    e.insert("replica_states", std::move(states));
+    e.insert("files", std::move(files));
+    e.insert("status", std::move(details));
+    points.push_back(std::move(e));
+  }
+  root.insert("point", std::move(points));
+  std::ostringstream os;
+  os << "# jamflow sweep manifest: a view of the point files, rewritten as they change.\n"
+     << root << "\n";
+  try {
+    write_atomically((fs::path(plan_.out_dir) / "manifest.toml").string(), os.str());
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "sweep: warning: %s\n", e.what());
+  }
+}
+
+// ---- Child processes --------------------------------------------------------------------------
+
+namespace {
+
+struct Child {
+  std::size_t task;
+  int lock_fd;
+  double start;
+};
+
+// Locks the task against a second sweep running it at the same time (a rerun while the first
+// still runs, two array tasks): an exclusive flock on r<k>.lock, held while the child runs.
+int lock_task(const Plan& plan, const Task& t) {
+  const std::string path = plan.task_file(t) + ".lock";
+  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0)
+    return -1;
+  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+    ::close(fd);
+    return -1;
+  }
+  return fd;
+}
+
+// Starts `exe args` in the folder `dir`, with stdout and stderr appended to `log` (a name in
+// that folder).
+pid_t spawn(const std::string& exe, const std::vector<std::string>& args, const std::string& dir,
+            const std::string& log) {
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addchdir_np(&fa, dir.c_str());
+  posix_spawn_file_actions_addopen(&fa, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_APPEND,
+                                   0644);
+  posix_spawn_file_actions_adddup2(&fa, STDOUT_FILENO, STDERR_FILENO);
+  std::vector<char*> argv;
+  argv.push_back(const_cast<char*>(exe.c_str()));
+  for (const auto& a : args)
+    argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  pid_t pid = -1;
+  const int rc = posix_spawn(&pid, exe.c_str(), &fa, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&fa);
+  if (rc != 0)
+    throw IoError("cannot start '" + exe + "': " + std::strerror(rc));
+  return pid;
+}
+
+std::string exit_text(int status) {
+  if (WIFEXITED(status))
+    return "exit status " + std::to_string(WEXITSTATUS(status));
+  if (WIFSIGNALED(status))
+    return std::string("killed by signal ") + std::to_string(WTERMSIG(status));
+  return "ended";
+}
+
+}  // namespace
+
+int run_slots(const Plan& plan, const std::vector<Task>& tasks, const SlotOptions& options,
+              const std::function<std::optional<std::size_t>()>& take,
+              const std::function<void(std::size_t)>& started,
+              const std::function<void(std::size_t, TaskState, double, const std::string&)>& report,
+              const std::function<void()>& tick, const std::function<bool()>& idle_done) {
+  std::map<pid_t, Child> running;
+  bool dry = false;
+  int stopped_by = 0;
+  while (true) {
+    const int sig = options.stop ? options.stop->load() : 0;
+    if (sig != 0 && stopped_by == 0) {
+      stopped_by = sig;
+      for (const auto& [pid, c] : running)
+        ::kill(pid, sig);
+    }
+    if (options.checkpoint && options.checkpoint->exchange(false)) {
+      for (const auto& [pid, c] : running)
+        ::kill(pid, SIGUSR1);
+    }
+    while (stopped_by == 0 && !dry && static_cast<int>(running.size()) < options.slots) {
+      const auto next = take();
+      if (!next) {
+        dry = true;
+        break;
+      }
+      const Task& t = tasks[*next];
+      const int fd = lock_task(plan, t);
+      if (fd < 0) {
+        report(*next, TaskState::kBusyElsewhere, 0.0, "locked by another sweep process");
+        continue;
+      }
+      std::string detail;
+      const TaskState now = probe(plan, t, &detail);  // the files may have moved on since
+      if (now == TaskState::kDone || now == TaskState::kFailed) {
+        ::close(fd);
+        report(*next, now, 0.0, now == TaskState::kFailed ? detail : "");
+        continue;
+      }
+      // The child runs in the point's folder, so that its files (and the scene stored in
+      // them) name no other folder: the same point gives the same bits wherever it runs.
+      std::vector<std::string> args;
+      const std::string stem = Plan::task_stem(t);
+      const std::string dir = plan.point_dir(plan.points[t.point]);
+      if (now == TaskState::kCheckpointed) {
+        args = {"run", "--resume", stem + ".h5.part", "-q"};
+      } else {
+        write_atomically((fs::path(dir) / (stem + ".toml")).string(), plan.task_scene(t).text());
+        args = {"run", stem + ".toml", "-q"};
+      }
+      pid_t pid = -1;
+      try {
+        pid = spawn(options.exe, args, dir, stem + ".log");
+      } catch (const std::exception& e) {
+        ::close(fd);
+        report(*next, TaskState::kFailed, 0.0, e.what());
+        continue;
+      }
+      running[pid] = {*next, fd, now_seconds()};
+      started(*next);
+    }
+    if (running.empty() && (dry || stopped_by != 0) && idle_done())
+      break;
+    int status = 0;
+    const pid_t pid = ::waitpid(-1, &status, WNOHANG);
+    if (pid > 0 && running.count(pid)) {
+      const Child c = running[pid];
+      running.erase(pid);
+      std::string detail;
+      TaskState s = probe(plan, tasks[c.task], &detail);
+      if (s == TaskState::kWaiting)  // nothing written: it failed before its first sample
+        s = TaskState::kFailed;
+      std::string why;
+      if (s == TaskState::kFailed)
+        why = exit_text(status) + (detail.empty() ? "" : ", " + detail) + "; see " +
+              plan.task_log(tasks[c.task]);
+      else if (s == TaskState::kCheckpointed)
+        why = detail;
+      ::close(c.lock_fd);
+      report(c.task, s, now_seconds() - c.start, why);
+      continue;
+    }
+    tick();
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return stopped_by;
+}
+
+int run_local(const Plan& plan, int jobs, const std::vector<std::size_t>& share, bool quiet,
+              const std::string& exe, const std::atomic<int>* stop, std::atomic<bool>* checkpoint) {
+  prepare_out_dir(plan);
+  Coordinator co(plan, share, jobs, quiet);
+  co.write_manifest();
+  co.tick();
+  SlotOptions so;
+  so.slots = jobs;
+  so.exe = exe;
+  so.stop = stop;
+  so.checkpoint = checkpoint;
+  const int sig = run_slots(
+      plan, co.tasks(), so, [&] { return co.take(); }, [&](std::size_t t) { co.started(t); },
+      [&](std::size_t t, TaskState s, double wall, const std::string& why) {
+        co.finished(t, s, wall, why);
+      },
+      [&] { co.tick(); });
+  co.write_manifest();
+  co.final_line();
+  if (sig != 0)
+    return 128 + sig;
+  return co.failed() > 0 ? 1 : 0;
+}
+
+}  // namespace jamflow::sweep

@@ -1,0 +1,359 @@
+#include "sweep/plan.hpp"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "driver/run.hpp"
+#include "lib/error.hpp"
+
+namespace jamflow::sweep {
+namespace fs = std::filesystem;
+
+namespace {
+
+// Keys the sweep sets itself for every task.
+const std::set<std::string> kManagedKeys = {"output.file", "run.replicas", "run.threads"};
+
+std::string value_text(const toml::node& v) {
+  if (const auto* d = v.as_floating_point())
+    return fmt(d->get());
+  if (const auto* i = v.as_integer())
+    return std::to_string(i->get());
+  if (const auto* s = v.as_string())
+    return s->get();
+  if (const auto* b = v.as_boolean())
+    return b->get() ? "true" : "false";
+  return "?";
+}
+
+// A value as it may appear in a file name: letters, digits and . + - kept, others '_'.
+std::string name_part(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    const bool keep = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                      c == '.' || c == '+' || c == '-';
+    out += keep ? c : '_';
+  }
+  return out;
+}
+
+struct Axis {
+  std::string key;
+  std::vector<const toml::node*> values;
+};
+
+// The axes of [sweep.grid] or [sweep.zip]: "section.key" = [values], or nested tables
+// [sweep.grid.section] key = [values].
+std::vector<Axis> read_axes(const toml::table& table, const std::string& where) {
+  std::vector<Axis> axes;
+  auto add = [&](const std::string& key, const toml::node& node) {
+    const auto* arr = node.as_array();
+    if (!arr || arr->empty()) {
+      throw ConfigError(where + " \"" + key + "\": allowed a non-empty list of values");
+    }
+    if (key.find('.') == std::string::npos || key.front() == '.' || key.back() == '.')
+      throw ConfigError(where + " \"" + key + "\": allowed a scene key section.key");
+    if (kManagedKeys.count(key)) {
+      throw ConfigError(where + " \"" + key +
+                        "\": set by the sweep for each task; allowed any other scene key "
+                        "([sweep] replicas gives the replica count)");
+    }
+    Axis a{key, {}};
+    std::set<std::string> seen;
+    for (const auto& v : *arr) {
+      if (!(v.is_number() || v.is_string() || v.is_boolean())) {
+        throw ConfigError(where + " \"" + key +
+                          "\": allowed numbers, strings or booleans in the list");
+      }
+      if (!seen.insert(value_text(v)).second) {
+        throw ConfigError(where + " \"" + key + "\": value " + value_text(v) +
+                          " appears twice; allowed distinct values");
+      }
+      a.values.push_back(&v);
+    }
+    axes.push_back(std::move(a));
+  };
+  for (const auto& [k, v] : table) {
+    const std::string key(k.str());
+    if (const auto* sub = v.as_table()) {
+      for (const auto& [k2, v2] : *sub) {
+        if (v2.is_table())
+          throw ConfigError(where + " \"" + key + "." + std::string(k2.str()) +
+                            "\": allowed a scene key section.key");
+        add(key + "." + std::string(k2.str()), v2);
+      }
+    } else {
+      add(key, v);
+    }
+  }
+  return axes;
+}
+
+// A relative `system.init` path is made absolute against `dir` (where the scene that named
+// it lives), so that a task finds its start wherever it runs.
+void anchor_init(Scene& scene, const fs::path& dir) {
+  const toml::table* sys = scene.table("system");
+  if (!sys)
+    return;
+  const toml::node* init = sys->get("init");
+  if (!init || !init->is_string())
+    return;
+  const fs::path p(init->as_string()->get());
+  if (p.empty() || p.is_absolute())
+    return;
+  scene.set_value("system.init", toml::value<std::string>((dir / p).lexically_normal().string()));
+}
+
+double expected_cost(const RunSpec& spec) {
+  const double n = spec.init_state ? double(spec.init_state->size()) : double(spec.n);
+  const double length = spec.auto_av ? spec.max_time : spec.t_eq + spec.t_av;
+  double dt = spec.make_integrator()->nominal_dt();
+  // Adaptive solvers: steps of order tau_0 near jamming (a relative cost only).
+  if (!(dt > 0.0))
+    dt = 1.0;
+  return n * length / dt;
+}
+
+}  // namespace
+
+std::string Plan::point_dir(const Point& p) const {
+  return (fs::path(out_dir) / "points" / p.name).string();
+}
+std::string Plan::task_stem(const Task& t) {
+  std::string s = "r";
+  return s.append(std::to_string(t.replica));
+}
+std::string Plan::task_file(const Task& t) const {
+  return (fs::path(point_dir(points[t.point])) / (task_stem(t) + ".h5")).string();
+}
+std::string Plan::task_log(const Task& t) const {
+  return (fs::path(point_dir(points[t.point])) / (task_stem(t) + ".log")).string();
+}
+std::string Plan::scene_file(const Point& p) const {
+  return (fs::path(point_dir(p)) / "scene.toml").string();
+}
+
+Scene Plan::task_scene(const Task& t) const {
+  Scene s = points[t.point].scene;
+  // Relative to the point's folder, where the task runs (execute.cpp).
+  s.set_value("output.file", toml::value<std::string>(task_stem(t) + ".h5"));
+  s.set_value("system.seed", toml::value<std::int64_t>(static_cast<std::int64_t>(t.seed)));
+  s.set_value("run.replicas", toml::value<std::int64_t>(1));
+  s.set_value("run.threads", toml::value<std::int64_t>(1));
+  return s;
+}
+
+std::vector<Task> Plan::tasks() const {
+  std::vector<Task> out;
+  for (const auto& p : points) {
+    const toml::table* sys = p.scene.table("system");
+    const toml::node* seed_node = sys ? sys->get("seed") : nullptr;
+    const std::int64_t seed =
+        seed_node && seed_node->is_integer() ? seed_node->as_integer()->get() : 1;
+    for (std::int64_t k = 0; k < replicas; ++k)
+      out.push_back({p.index, k, static_cast<std::uint64_t>(seed + k), p.cost});
+  }
+  std::stable_sort(out.begin(), out.end(),
+                   [](const Task& a, const Task& b) { return a.cost > b.cost; });
+  return out;
+}
+
+Plan parse_plan(const std::string& text, const std::string& source, const std::string& base_dir,
+                const std::string& out_dir) {
+  const Scene file = Scene::parse(text, source);
+  file.check_sections({"sweep", "scene"});
+  const toml::table* sw = file.table("sweep");
+  if (!sw)
+    throw ConfigError(source + ": no [sweep] section; allowed a sweep file with [sweep]");
+  for (const auto& [k, v] : *sw) {
+    const std::string key(k.str());
+    if (key != "scene" && key != "replicas" && key != "grid" && key != "zip")
+      throw ConfigError(source + ": unknown key [sweep] " + key +
+                        "; allowed scene, replicas, grid, zip");
+  }
+  Plan plan;
+  plan.path = source;
+  plan.name = fs::path(source).stem().string();
+  const fs::path base(base_dir.empty() ? "." : base_dir);
+  plan.out_dir =
+      out_dir.empty() ? (base / (plan.name + ".sweep")).lexically_normal().string() : out_dir;
+
+  // The base scene: a file (relative to the sweep file) or the inline [scene] table.
+  Scene scene;
+  const toml::node* scene_key = sw->get("scene");
+  if (scene_key && file.table("scene"))
+    throw ConfigError(source + ": both [sweep] scene and a [scene] table; allowed one of them");
+  if (scene_key) {
+    if (!scene_key->is_string())
+      throw ConfigError(source + ": [sweep] scene must be a file name (a string)");
+    fs::path p(scene_key->as_string()->get());
+    if (p.is_relative())
+      p = base / p;
+    scene = Scene::load(p.lexically_normal().string());
+    anchor_init(scene, p.parent_path());
+  } else if (const toml::table* inline_scene = file.table("scene")) {
+    std::ostringstream os;
+    os << *inline_scene << "\n";
+    scene = Scene::parse(os.str(), source + " [scene]");
+    anchor_init(scene, base);
+  } else {
+    throw ConfigError(source +
+                      ": no base scene; allowed [sweep] scene = \"FILE\" or a [scene] "
+                      "table");
+  }
+
+  // Replicas: [sweep] replicas, else the scene's [run] replicas, else 1.
+  plan.replicas = 1;
+  if (const toml::table* run = scene.table("run")) {
+    if (const toml::node* r = run->get("replicas"); r && r->is_integer())
+      plan.replicas = r->as_integer()->get();
+  }
+  if (const toml::node* r = sw->get("replicas")) {
+    if (!r->is_integer() || r->as_integer()->get() < 1 || r->as_integer()->get() > 10000) {
+      throw ConfigError(source + ": [sweep] replicas = " + value_text(*r) +
+                        "; allowed an integer in [1, 10000]");
+    }
+    plan.replicas = r->as_integer()->get();
+  }
+
+  std::vector<Axis> grid, zip;
+  if (const toml::node* g = sw->get("grid")) {
+    if (!g->is_table())
+      throw ConfigError(source + ": [sweep] grid must be a table [sweep.grid]");
+    grid = read_axes(*g->as_table(), source + ": [sweep.grid]");
+  }
+  if (const toml::node* z = sw->get("zip")) {
+    if (!z->is_table())
+      throw ConfigError(source + ": [sweep] zip must be a table [sweep.zip]");
+    zip = read_axes(*z->as_table(), source + ": [sweep.zip]");
+    for (const auto& a : zip) {
+      if (a.values.size() != zip.front().values.size()) {
+        throw ConfigError(source + ": [sweep.zip] \"" + a.key + "\" has " +
+                          std::to_string(a.values.size()) + " values and \"" + zip.front().key +
+                          "\" has " + std::to_string(zip.front().values.size()) +
+                          "; allowed lists of equal length");
+      }
+    }
+  }
+  std::set<std::string> keys;
+  for (const auto* axes : {&grid, &zip}) {
+    for (const auto& a : *axes) {
+      if (!keys.insert(a.key).second)
+        throw ConfigError(source + ": \"" + a.key +
+                          "\" is varied twice; allowed once, in "
+                          "[sweep.grid] or [sweep.zip]");
+      plan.axes.push_back(a.key);
+    }
+  }
+  // Short names: the key's last part, unless two axes share it.
+  std::map<std::string, int> last_count;
+  auto last = [](const std::string& k) { return k.substr(k.rfind('.') + 1); };
+  for (const auto& k : plan.axes)
+    ++last_count[last(k)];
+  auto short_name = [&](const std::string& k) {
+    if (last_count[last(k)] == 1)
+      return name_part(last(k));
+    std::string s = k;
+    std::replace(s.begin(), s.end(), '.', '-');
+    return name_part(s);
+  };
+
+  // The points: the grid axes (first slowest), then the zip as one more axis.
+  std::vector<std::size_t> sizes;
+  for (const auto& a : grid)
+    sizes.push_back(a.values.size());
+  if (!zip.empty())
+    sizes.push_back(zip.front().values.size());
+  std::size_t count = 1;
+  for (auto s : sizes) {
+    count *= s;
+    if (count > 100000)
+      throw ConfigError(source + ": the sweep has more than 100000 points; allowed at most that");
+  }
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < count; ++i) {
+    Point p;
+    p.index = i;
+    p.scene = scene;
+    std::vector<std::size_t> at(sizes.size());
+    std::size_t rest = i;
+    for (std::size_t d = sizes.size(); d-- > 0;) {
+      at[d] = rest % sizes[d];
+      rest /= sizes[d];
+    }
+    auto apply = [&](const Axis& a, std::size_t k) {
+      const toml::node& v = *a.values[k];
+      p.scene.set_value(a.key, v);
+      p.values.emplace_back(a.key, value_text(v));
+      if (a.key == "system.init")
+        anchor_init(p.scene, base);
+    };
+    for (std::size_t d = 0; d < grid.size(); ++d)
+      apply(grid[d], at[d]);
+    for (const auto& a : zip)
+      apply(a, at.back());
+    for (const auto& [k, v] : p.values) {
+      if (!p.name.empty())
+        p.name += '_';
+      p.name.append(short_name(k)).append("-").append(name_part(v));
+    }
+    if (p.name.empty())
+      p.name = "point";
+    if (p.name.size() > 200)
+      throw ConfigError(source + ": point name '" + p.name.substr(0, 60) +
+                        "...' is longer than 200 characters; allowed fewer or shorter values");
+    if (!names.insert(p.name).second) {
+      throw ConfigError(source + ": two points are both named '" + p.name +
+                        "' (values that differ only in characters a file name cannot hold); "
+                        "allowed distinct names");
+    }
+    plan.points.push_back(std::move(p));
+  }
+
+  // Every point through the checks of `jamflow run`, before anything runs.
+  for (auto& p : plan.points) {
+    try {
+      const RunSpec spec = parse_run_spec(plan.task_scene({p.index, 0, 1, 0.0}));
+      p.n = spec.init_state ? static_cast<std::int64_t>(spec.init_state->size()) : spec.n;
+      p.cost = expected_cost(spec);
+    } catch (const ConfigError& e) {
+      throw ConfigError("sweep point " + p.name + ": " + e.what());
+    } catch (const InputFileError& e) {
+      throw ConfigError("sweep point " + p.name + ": " + e.what());
+    }
+  }
+  return plan;
+}
+
+Plan load_plan(const std::string& path, const std::string& out_dir) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec))
+    throw InputFileError("sweep file '" + path + "' is a directory; allowed: a TOML file");
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream buf;
+  buf << in.rdbuf();
+  if (!in.good() && !in.eof())
+    throw InputFileError("cannot read sweep file '" + path + "'; allowed: a readable TOML file");
+  if (!std::ifstream(path))
+    throw InputFileError("cannot open sweep file '" + path + "'; allowed: a readable TOML file");
+  return parse_plan(buf.str(), path, fs::path(path).parent_path().string(), out_dir);
+}
+
+std::vector<std::size_t> array_share(const std::vector<Task>& tasks, int task_id, int size) {
+  std::vector<double> load(static_cast<std::size_t>(size), 0.0);
+  std::vector<std::size_t> mine;
+  for (std::size_t i = 0; i < tasks.size(); ++i) {
+    const auto best =
+        static_cast<std::size_t>(std::min_element(load.begin(), load.end()) - load.begin());
+    load[best] += tasks[i].cost;
+    if (static_cast<int>(best) == task_id)
+      mine.push_back(i);
+  }
+  return mine;
+}
+
+}  // namespace jamflow::sweep

@@ -1,0 +1,172 @@
+// Sweep files: expansion into points, stable names, the replica tasks, array shares, and the
+// one-line errors for bad keys and values, found for every point before anything runs.
+#include <gtest/gtest.h>
+
+#include <set>
+#include <string>
+
+#include "lib/error.hpp"
+#include "sweep/plan.hpp"
+
+namespace jamflow::sweep {
+namespace {
+
+const char* const kScene = R"(
+[scene.system]
+N = 64
+phi = 0.6
+[scene.ensemble]
+kind = "constant_pressure"
+pressure = 1e-2
+[scene.shear]
+rate = 1e-2
+[scene.integrator]
+kind = "euler"
+dt = 0.1
+[scene.run]
+t_eq = 10.0
+t_av = 20.0
+sample_every = 1.0
+)";
+
+Plan parse(const std::string& sweep) {
+  return parse_plan(sweep + kScene, "test.toml", "/tmp", "/tmp/out");
+}
+
+std::string error_of(const std::string& sweep) {
+  try {
+    parse(sweep);
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+TEST(SweepPlan, GridTimesZipInAlphabeticalKeyOrder) {
+  const Plan p = parse(R"([sweep]
+replicas = 2
+[sweep.grid]
+"shear.rate" = [1e-3, 1e-4, 1e-5]
+"ensemble.pressure" = [1e-3, 1e-4]
+[sweep.zip]
+"system.N" = [100, 200]
+"integrator.dt" = [0.2, 0.1]
+)");
+  ASSERT_EQ(p.points.size(), 12u);  // 2 pressures x 3 rates x 2 zipped pairs
+  EXPECT_EQ(p.axes, (std::vector<std::string>{"ensemble.pressure", "shear.rate", "integrator.dt",
+                                              "system.N"}));
+  EXPECT_EQ(p.points.front().name, "pressure-0.001_rate-0.001_dt-0.2_N-100");
+  EXPECT_EQ(p.points[1].name, "pressure-0.001_rate-0.001_dt-0.1_N-200");
+  EXPECT_EQ(p.points.back().name, "pressure-1e-04_rate-1e-05_dt-0.1_N-200");
+  std::set<std::string> names;
+  for (const auto& pt : p.points)
+    names.insert(pt.name);
+  EXPECT_EQ(names.size(), p.points.size());
+  // The values are in the point's scene exactly (no text round trip).
+  const toml::table* shear = p.points.back().scene.table("shear");
+  ASSERT_NE(shear, nullptr);
+  EXPECT_EQ(shear->get("rate")->as_floating_point()->get(), 1e-5);
+  EXPECT_EQ(p.points.back().n, 200);
+  EXPECT_EQ(p.out_dir, "/tmp/out");
+}
+
+TEST(SweepPlan, NamesDoNotDependOnOtherAxesValues) {
+  const Plan a = parse("[sweep]\n[sweep.grid]\n\"shear.rate\" = [1e-3, 1e-4]\n");
+  const Plan b = parse("[sweep]\n[sweep.grid]\n\"shear.rate\" = [1e-4, 1e-2, 1e-3]\n");
+  EXPECT_EQ(a.points[0].name, b.points[2].name);
+  EXPECT_EQ(a.points[1].name, b.points[0].name);
+}
+
+TEST(SweepPlan, TasksAreReplicasWithConsecutiveSeedsLongestFirst) {
+  const Plan p = parse(R"([sweep]
+replicas = 3
+[sweep.zip]
+"system.N" = [50, 400]
+)");
+  const auto tasks = p.tasks();
+  ASSERT_EQ(tasks.size(), 6u);
+  EXPECT_EQ(p.points[tasks[0].point].n, 400);  // expected-longest first
+  EXPECT_GT(tasks[0].cost, tasks[5].cost);
+  EXPECT_EQ(tasks[0].seed, 1u);
+  EXPECT_EQ(tasks[1].seed, 2u);
+  EXPECT_EQ(tasks[2].seed, 3u);
+  EXPECT_EQ(tasks[2].replica, 2);
+  const Scene s = p.task_scene(tasks[1]);
+  EXPECT_EQ(s.table("system")->get("seed")->as_integer()->get(), 2);
+  EXPECT_EQ(s.table("run")->get("replicas")->as_integer()->get(), 1);
+  EXPECT_EQ(s.table("run")->get("threads")->as_integer()->get(), 1);
+  EXPECT_EQ(s.table("output")->get("file")->as_string()->get(), "r1.h5");
+}
+
+TEST(SweepPlan, ArraySharesPartitionTheTasks) {
+  const Plan p = parse(R"([sweep]
+replicas = 2
+[sweep.grid]
+"shear.rate" = [1e-2, 1e-3, 1e-4]
+"system.N" = [50, 100, 400]
+)");
+  const auto tasks = p.tasks();
+  for (int size : {1, 2, 5, 40}) {
+    std::multiset<std::size_t> all;
+    double most = 0.0, least = 1e300;
+    for (int k = 0; k < size; ++k) {
+      const auto share = array_share(tasks, k, size);
+      EXPECT_EQ(share, array_share(tasks, k, size));  // the same split every time
+      double load = 0.0;
+      for (auto i : share) {
+        all.insert(i);
+        load += tasks[i].cost;
+      }
+      if (!share.empty()) {
+        most = std::max(most, load);
+        least = std::min(least, load);
+      }
+    }
+    EXPECT_EQ(all.size(), tasks.size()) << size;
+    EXPECT_EQ(std::set<std::size_t>(all.begin(), all.end()).size(), tasks.size()) << size;
+    // Longest-processing-time dealing: no share exceeds another by more than the largest task.
+    if (size == 2) {
+      EXPECT_LE(most - least, tasks.front().cost);
+    }
+  }
+}
+
+TEST(SweepPlan, BadInputIsOneLineNamingThePointAndTheKey) {
+  const std::string bad_value = error_of("[sweep]\n[sweep.grid]\n\"system.phi\" = [0.6, 1.5]\n");
+  EXPECT_NE(bad_value.find("sweep point phi-1.5:"), std::string::npos) << bad_value;
+  EXPECT_NE(bad_value.find("phi"), std::string::npos) << bad_value;
+  const std::string bad_key = error_of("[sweep]\n[sweep.grid]\n\"system.phy\" = [0.6]\n");
+  EXPECT_NE(bad_key.find("sweep point phy-0.6:"), std::string::npos) << bad_key;
+  EXPECT_NE(bad_key.find("phy"), std::string::npos) << bad_key;
+  for (const std::string& e : {bad_value, bad_key})
+    EXPECT_EQ(e.find('\n'), std::string::npos) << e;
+  EXPECT_NE(error_of("[sweep]\n[sweep.zip]\n\"system.N\" = [1, 2]\n\"integrator.dt\" = [0.1]\n")
+                .find("allowed lists of equal length"),
+            std::string::npos);
+  EXPECT_NE(
+      error_of("[sweep]\n[sweep.grid]\n\"output.file\" = [\"a.h5\"]\n").find("set by the sweep"),
+      std::string::npos);
+  EXPECT_NE(error_of("[sweep]\n[sweep.grid]\n\"shear.rate\" = []\n").find("non-empty list"),
+            std::string::npos);
+  EXPECT_NE(
+      error_of("[sweep]\n[sweep.grid]\n\"shear.rate\" = [1e-3, 1e-3]\n").find("appears twice"),
+      std::string::npos);
+  EXPECT_NE(error_of("[sweep]\nreplicas = 0\n").find("[sweep] replicas = 0"), std::string::npos);
+  EXPECT_NE(error_of("[sweep]\nrepilcas = 2\n").find("unknown key [sweep] repilcas"),
+            std::string::npos);
+  EXPECT_NE(
+      error_of("[sweep]\n[sweep.grid]\n\"shear.rate\" = [1e-3]\n[sweep.zip]\n\"shear.rate\" = "
+               "[1e-3]\n")
+          .find("varied twice"),
+      std::string::npos);
+  EXPECT_THROW(parse_plan("[sweep]\n", "t.toml", "/tmp", ""), ConfigError);  // no base scene
+}
+
+TEST(SweepPlan, NestedTablesAreKeysToo) {
+  const Plan p = parse("[sweep]\n[sweep.grid.shear]\nrate = [1e-3, 1e-4]\n");
+  ASSERT_EQ(p.points.size(), 2u);
+  EXPECT_EQ(p.axes.front(), "shear.rate");
+}
+
+}  // namespace
+}  // namespace jamflow::sweep
