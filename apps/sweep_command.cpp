@@ -1,46 +1,26 @@
 #include "apps/sweep_command.hpp"
 
 #include <CLI/CLI.hpp>
-#include <atomic>
-#include <csignal>
 #include <cstdio>
 #include <filesystem>
-#include <thread>
 
 #include "lib/cli_exit.hpp"
 #include "lib/error.hpp"
-#include "lib/progress.hpp"
 #include "sweep/collect.hpp"
+#include "sweep/engine.hpp"
 #include "sweep/execute.hpp"
-#include "sweep/mpi.hpp"
 #include "sweep/plan.hpp"
-#include "sweep/slurm.hpp"
 
 namespace jamflow::apps {
 namespace {
 
-std::atomic<int> g_stop{0};
-std::atomic<bool> g_checkpoint{false};
-extern "C" void on_sweep_signal(int sig) {
-  if (sig == SIGUSR1)
-    g_checkpoint.store(true);
-  else
-    g_stop.store(sig);
-}
-
-// Measured explicit Euler throughput on one core (README "Benchmark"), for the CPU-hour
-// estimate of --dry-run: RESPA's sub-steps and CVODE cost more per step, so it is a floor.
-constexpr double kSecondsPerParticleStep = 25e-9;
-
 void print_dry_run(const sweep::Plan& plan) {
   const auto tasks = plan.tasks();
-  double cost = 0.0;
-  for (const auto& t : tasks)
-    cost += t.cost;
+  const sweep::CostEstimate cost = sweep::estimate_cost(plan);
   std::printf("sweep %s: %zu points x %lld replicas = %zu runs -> %s\n", plan.name.c_str(),
               plan.points.size(), static_cast<long long>(plan.replicas), tasks.size(),
               plan.out_dir.c_str());
-  std::printf("  %-48s %8s %12s  %s\n", "point", "N", "steps x N", "state");
+  std::printf("  %-48s %8s %12s  %s\n", "point", "N", "forces x N", "state");
   for (const auto& p : plan.points) {
     std::string states;
     for (const auto& t : tasks) {
@@ -51,9 +31,9 @@ void print_dry_run(const sweep::Plan& plan) {
                 states.c_str());
   }
   std::printf(
-      "  expected work: %.3g particle-steps, about %.3g CPU-hours at %.0f ns per "
-      "particle-step (explicit Euler's throughput; RESPA and CVODE cost more)\n",
-      cost, cost * kSecondsPerParticleStep / 3600.0, kSecondsPerParticleStep * 1e9);
+      "  expected work: %.3g particle force evaluations, about %.3g CPU-hours (40 ns "
+      "each; CVODE counted as 4 per tau_0)\n",
+      cost.particle_steps, cost.cpu_hours);
 }
 
 }  // namespace
@@ -119,34 +99,16 @@ int sweep_command(const std::vector<std::string>& args) {
     so.cpus_per_task = cpus;
     so.signal_seconds = signal_seconds;
     so.partition = partition;
-    so.exe = sweep::self_exe();
-    sweep::prepare_out_dir(plan);
-    std::filesystem::create_directories(std::filesystem::path(plan.out_dir) / "slurm");
-    const std::string script = (std::filesystem::path(plan.out_dir) / "sweep.sbatch").string();
-    sweep::write_atomically(script, sweep::slurm_script(plan, so));
+    const std::string script = sweep::write_slurm_script(plan, so);
     std::printf("%s\nsubmit it with: sbatch %s\n", script.c_str(), script.c_str());
     return 0;
   }
-  for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGUSR1})
-    std::signal(sig, on_sweep_signal);
-  const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  if (sweep::mpi_launched()) {
-    if (task >= 0)
-      throw ConfigError("--task under mpirun; allowed one of them (MPI ranks share all points)");
-    return sweep::run_mpi(plan, jobs > 0 ? jobs : 1, quiet, sweep::self_exe(), &g_stop,
-                          &g_checkpoint);
-  }
-  std::vector<std::size_t> share;
-  if (task >= 0) {
-    share = sweep::array_share(plan.tasks(), task, array_size);
-    if (share.empty()) {
-      std::fprintf(stderr, "sweep %s: array task %d of %d has no points\n", plan.name.c_str(), task,
-                   array_size);
-      return 0;
-    }
-  }
-  return sweep::run_local(plan, jobs > 0 ? jobs : cores, share, quiet, sweep::self_exe(), &g_stop,
-                          &g_checkpoint);
+  sweep::EngineOptions eo;
+  eo.jobs = jobs;
+  eo.quiet = quiet;
+  eo.task = task;
+  eo.array_size = array_size;
+  return sweep::run_plan(plan, eo);
 }
 
 }  // namespace jamflow::apps

@@ -13,6 +13,14 @@ struct StudyOptions {
   int threads = 0;
   bool quiet = false;
   bool no_plots = false;
+  // Studies whose points are a sweep (sweep/): points at once (0: the cores), print the point
+  // count and cost and stop, or write a Slurm job array instead of running.
+  int jobs = 0;
+  bool dry_run = false;
+  bool slurm = false;
+  std::string slurm_time = "24:00:00";
+  int slurm_array_size = 0;
+  std::string slurm_partition;
 };
 
 using StudyFn = std::function<int(const StudyOptions&)>;
@@ -21,6 +29,7 @@ struct StudyInfo {
   std::string name;
   std::string summary;
   StudyFn run;
+  bool on_sweep_engine = false;  // takes --jobs, --dry-run and --slurm (studies/sweep_study.hpp)
 };
 
 // All studies known to this build, sorted by name.

@@ -6,6 +6,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <variant>
 
 #include "driver/run.hpp"
 #include "lib/error.hpp"
@@ -27,6 +28,12 @@ std::string value_text(const toml::node& v) {
     return s->get();
   if (const auto* b = v.as_boolean())
     return b->get() ? "true" : "false";
+  if (const auto* t = v.as_table()) {
+    std::string out;
+    for (const auto& [k, x] : *t)
+      out.append(out.empty() ? "" : "_").append(k.str()).append(value_text(x));
+    return out;
+  }
   return "?";
 }
 
@@ -47,15 +54,22 @@ struct Axis {
 };
 
 // The axes of [sweep.grid] or [sweep.zip]: "section.key" = [values], or nested tables
-// [sweep.grid.section] key = [values].
-std::vector<Axis> read_axes(const toml::table& table, const std::string& where) {
+// [sweep.grid.section] key = [values]. A grid's values must be distinct.
+std::vector<Axis> read_axes(const toml::table& table, const std::string& where, bool distinct) {
   std::vector<Axis> axes;
   auto add = [&](const std::string& key, const toml::node& node) {
     const auto* arr = node.as_array();
     if (!arr || arr->empty()) {
       throw ConfigError(where + " \"" + key + "\": allowed a non-empty list of values");
     }
-    if (key.find('.') == std::string::npos || key.front() == '.' || key.back() == '.')
+    // A key without a dot names a whole section, replaced by each value (an inline table):
+    // how points differ in the keys a section has, e.g. integrator = [{kind = "respa", dt = 1.0},
+    // {kind = "cvode", rtol = 1e-5}].
+    const bool section = key.find('.') == std::string::npos;
+    if (section && (key == "output" || key == "run"))
+      throw ConfigError(where + " \"" + key + "\": the sweep sets keys of [" + key +
+                        "]; allowed its other keys one by one (\"" + key + ".KEY\")");
+    if (!section && (key.front() == '.' || key.back() == '.'))
       throw ConfigError(where + " \"" + key + "\": allowed a scene key section.key");
     if (kManagedKeys.count(key)) {
       throw ConfigError(where + " \"" + key +
@@ -65,11 +79,13 @@ std::vector<Axis> read_axes(const toml::table& table, const std::string& where) 
     Axis a{key, {}};
     std::set<std::string> seen;
     for (const auto& v : *arr) {
-      if (!(v.is_number() || v.is_string() || v.is_boolean())) {
+      if (section ? !v.is_table() : !(v.is_number() || v.is_string() || v.is_boolean())) {
         throw ConfigError(where + " \"" + key +
-                          "\": allowed numbers, strings or booleans in the list");
+                          (section ? "\": allowed inline tables {key = value, ...} in the list "
+                                     "(a whole section)"
+                                   : "\": allowed numbers, strings or booleans in the list"));
       }
-      if (!seen.insert(value_text(v)).second) {
+      if (distinct && !seen.insert(value_text(v)).second) {
         throw ConfigError(where + " \"" + key + "\": value " + value_text(v) +
                           " appears twice; allowed distinct values");
       }
@@ -108,14 +124,24 @@ void anchor_init(Scene& scene, const fs::path& dir) {
   scene.set_value("system.init", toml::value<std::string>((dir / p).lexically_normal().string()));
 }
 
+// Expected particle force evaluations of one replica: N x (t_eq + t_av, or max_time) x force
+// passes per unit time. Euler: 1 / dt; RESPA: n_inner (x2 with Heun sub-steps) / dt; CVODE,
+// whose steps adapt: 4 per tau_0, what RESPA's dt = 1 costs (a relative cost only).
 double expected_cost(const RunSpec& spec) {
   const double n = spec.init_state ? double(spec.init_state->size()) : double(spec.n);
   const double length = spec.auto_av ? spec.max_time : spec.t_eq + spec.t_av;
-  double dt = spec.make_integrator()->nominal_dt();
-  // Adaptive solvers: steps of order tau_0 near jamming (a relative cost only).
-  if (!(dt > 0.0))
-    dt = 1.0;
-  return n * length / dt;
+  const IntegratorSettings& in = spec.integrator;
+  double per_time = 4.0;
+  if (const auto dt = in.number("dt"); dt && *dt > 0.0) {
+    per_time = 1.0 / *dt;
+    if (in.kind == "respa") {
+      const auto it = in.values.find("inner_scheme");
+      const bool heun = it != in.values.end() && std::holds_alternative<std::string>(it->second) &&
+                        std::get<std::string>(it->second) == "heun";
+      per_time *= in.number("n_inner").value_or(4.0) * (heun ? 2.0 : 1.0);
+    }
+  }
+  return n * length * per_time;
 }
 
 }  // namespace
@@ -171,9 +197,9 @@ Plan parse_plan(const std::string& text, const std::string& source, const std::s
     throw ConfigError(source + ": no [sweep] section; allowed a sweep file with [sweep]");
   for (const auto& [k, v] : *sw) {
     const std::string key(k.str());
-    if (key != "scene" && key != "replicas" && key != "grid" && key != "zip")
+    if (key != "scene" && key != "replicas" && key != "grid" && key != "zip" && key != "names_from")
       throw ConfigError(source + ": unknown key [sweep] " + key +
-                        "; allowed scene, replicas, grid, zip");
+                        "; allowed scene, replicas, grid, zip, names_from");
   }
   Plan plan;
   plan.path = source;
@@ -224,12 +250,13 @@ Plan parse_plan(const std::string& text, const std::string& source, const std::s
   if (const toml::node* g = sw->get("grid")) {
     if (!g->is_table())
       throw ConfigError(source + ": [sweep] grid must be a table [sweep.grid]");
-    grid = read_axes(*g->as_table(), source + ": [sweep.grid]");
+    grid = read_axes(*g->as_table(), source + ": [sweep.grid]", true);
   }
   if (const toml::node* z = sw->get("zip")) {
     if (!z->is_table())
       throw ConfigError(source + ": [sweep] zip must be a table [sweep.zip]");
-    zip = read_axes(*z->as_table(), source + ": [sweep.zip]");
+    // A zip's lists may repeat values (points are told apart by all of them together).
+    zip = read_axes(*z->as_table(), source + ": [sweep.zip]", false);
     for (const auto& a : zip) {
       if (a.values.size() != zip.front().values.size()) {
         throw ConfigError(source + ": [sweep.zip] \"" + a.key + "\" has " +
@@ -249,11 +276,29 @@ Plan parse_plan(const std::string& text, const std::string& source, const std::s
       plan.axes.push_back(a.key);
     }
   }
+  // The keys that name points: all varied keys, or those of [sweep] names_from (which must
+  // still tell every point apart; checked below).
+  std::set<std::string> naming(keys.begin(), keys.end());
+  if (const toml::node* nf = sw->get("names_from")) {
+    const auto* arr = nf->as_array();
+    if (!arr || arr->empty())
+      throw ConfigError(source + ": [sweep] names_from: allowed a non-empty list of varied keys");
+    naming.clear();
+    for (const auto& k : *arr) {
+      const std::string key = k.is_string() ? k.as_string()->get() : value_text(k);
+      if (!k.is_string() || !keys.count(key))
+        throw ConfigError(source + ": [sweep] names_from \"" + key +
+                          "\": allowed keys varied in [sweep.grid] or [sweep.zip]");
+      naming.insert(key);
+    }
+  }
   // Short names: the key's last part, unless two axes share it.
   std::map<std::string, int> last_count;
   auto last = [](const std::string& k) { return k.substr(k.rfind('.') + 1); };
-  for (const auto& k : plan.axes)
-    ++last_count[last(k)];
+  for (const auto& k : plan.axes) {
+    if (naming.count(k))
+      ++last_count[last(k)];
+  }
   auto short_name = [&](const std::string& k) {
     if (last_count[last(k)] == 1)
       return name_part(last(k));
@@ -287,7 +332,10 @@ Plan parse_plan(const std::string& text, const std::string& source, const std::s
     }
     auto apply = [&](const Axis& a, std::size_t k) {
       const toml::node& v = *a.values[k];
-      p.scene.set_value(a.key, v);
+      if (a.key.find('.') == std::string::npos)
+        p.scene.set_section(a.key, *v.as_table());
+      else
+        p.scene.set_value(a.key, v);
       p.values.emplace_back(a.key, value_text(v));
       if (a.key == "system.init")
         anchor_init(p.scene, base);
@@ -297,6 +345,8 @@ Plan parse_plan(const std::string& text, const std::string& source, const std::s
     for (const auto& a : zip)
       apply(a, at.back());
     for (const auto& [k, v] : p.values) {
+      if (!naming.count(k))
+        continue;
       if (!p.name.empty())
         p.name += '_';
       p.name.append(short_name(k)).append("-").append(name_part(v));
@@ -308,8 +358,9 @@ Plan parse_plan(const std::string& text, const std::string& source, const std::s
                         "...' is longer than 200 characters; allowed fewer or shorter values");
     if (!names.insert(p.name).second) {
       throw ConfigError(source + ": two points are both named '" + p.name +
-                        "' (values that differ only in characters a file name cannot hold); "
-                        "allowed distinct names");
+                        "' (values that differ only in characters a file name cannot hold, or "
+                        "[sweep] names_from leaves out a key that tells them apart); allowed "
+                        "distinct names");
     }
     plan.points.push_back(std::move(p));
   }

@@ -9,6 +9,7 @@
 //   [sweep.zip]                  # lists varied together (equal lengths), one more grid axis
 //   "system.N" = [500, 1000]
 //   "integrator.dt" = [0.2, 0.1]
+//   # names_from = ["ensemble.pressure", "shear.rate"]   optional: the keys that name points
 //
 // Keys are taken in alphabetical order (TOML tables are unordered): the grid's first key varies
 // slowest, the zip comes last, and a point's name lists its values in that order.
@@ -31,7 +32,7 @@ struct Point {
   std::vector<std::pair<std::string, std::string>> values;  // varied key -> value as TOML text
   Scene scene;  // base + values; output file, seed, threads and replicas are set per task
   std::int64_t n = 0;
-  double cost = 0.0;  // expected particle-steps of one replica (relative cost; see plan.cpp)
+  double cost = 0.0;  // expected particle force evaluations of one replica (see plan.cpp)
 };
 
 // One replica of one point: what a worker runs.

@@ -162,6 +162,47 @@ TEST(SweepPlan, BadInputIsOneLineNamingThePointAndTheKey) {
   EXPECT_THROW(parse_plan("[sweep]\n", "t.toml", "/tmp", ""), ConfigError);  // no base scene
 }
 
+TEST(SweepPlan, NamesFromChoosesTheNamingKeys) {
+  const Plan p = parse(R"([sweep]
+names_from = ["shear.rate"]
+[sweep.zip]
+"shear.rate" = [1e-3, 1e-4]
+"run.t_av" = [100.0, 200.0]
+)");
+  EXPECT_EQ(p.points[0].name, "rate-0.001");
+  EXPECT_EQ(p.points[1].name, "rate-1e-04");
+  EXPECT_NE(error_of(R"([sweep]
+names_from = ["shear.rate"]
+[sweep.grid]
+"shear.rate" = [1e-3, 1e-4]
+"run.t_av" = [100.0, 200.0]
+)")
+                .find("both named 'rate-0.001'"),
+            std::string::npos);
+  EXPECT_NE(
+      error_of("[sweep]\nnames_from = [\"system.N\"]\n[sweep.grid]\n\"shear.rate\" = [1e-3]\n")
+          .find("allowed keys varied"),
+      std::string::npos);
+}
+
+TEST(SweepPlan, AWholeSectionCanBeAnAxis) {
+  const Plan p = parse(R"([sweep]
+names_from = ["system.N"]
+[sweep.zip]
+"system.N" = [64, 128]
+integrator = [{kind = "euler", dt = 0.1}, {kind = "cvode", rtol = 1e-5}]
+)");
+  ASSERT_EQ(p.points.size(), 2u);
+  EXPECT_EQ(p.points[1].name, "N-128");
+  const toml::table* in = p.points[1].scene.table("integrator");
+  EXPECT_EQ(in->get("kind")->as_string()->get(), "cvode");
+  EXPECT_EQ(in->get("dt"), nullptr);  // replaced whole: no dt left over from the base scene
+  EXPECT_NE(error_of("[sweep]\n[sweep.grid]\nrun = [{t_av = 10.0}]\n").find("the sweep sets"),
+            std::string::npos);
+  EXPECT_NE(error_of("[sweep]\n[sweep.grid]\nintegrator = [1]\n").find("inline tables"),
+            std::string::npos);
+}
+
 TEST(SweepPlan, NestedTablesAreKeysToo) {
   const Plan p = parse("[sweep]\n[sweep.grid.shear]\nrate = [1e-3, 1e-4]\n");
   ASSERT_EQ(p.points.size(), 2u);

@@ -1,0 +1,156 @@
+#include "studies/hard-sphere/points.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include <toml++/toml.h>
+
+#include "lib/config.hpp"
+#include "lib/error.hpp"
+
+namespace jamflow::studies::hard_sphere {
+
+namespace {
+
+// Three significant digits: run lengths that read well in names and files.
+double round3(double x) {
+  if (!(x > 0.0))
+    return x;
+  const double scale = std::pow(10.0, std::floor(std::log10(x)) - 2.0);
+  return std::round(x / scale) * scale;
+}
+
+// Starting packing fraction: the seed's fit phi = phi_J - C_phi J^b_phi with its finite-size
+// forms (Table 2, SPEC §5), 0.01 lower and clamped to [0.3, 0.63]. Only the start: the piston
+// finds the steady state; this shortens the transient.
+double phi_start(double j, std::int64_t n) {
+  const double nn = double(n);
+  const double phi_j = 0.6474 - 0.323 * std::pow(nn, -0.852);
+  const double b = 0.391 + 0.756 * std::pow(nn, -0.505);
+  const double c = 0.0683 - 1.15 * std::pow(nn, -1.17);
+  return std::clamp(phi_j - c * std::pow(j, b) - 0.01, 0.3, 0.63);
+}
+
+}  // namespace
+
+GridPreset grid_preset(const std::string& preset) {
+  GridPreset g;
+  g.name = preset;
+  if (preset == "quick") {
+    g.sizes = {64};
+    g.pressures = {1e-2, 3e-3};
+    g.js = {1.0, 0.3, 0.1, 0.03};
+    g.replicas = 2;
+    g.strain_eq = 1.0;
+    g.strain_av = 2.0;
+    g.t_eq_min = 100.0;
+    g.t_av_min = 200.0;
+    g.samples = 200;
+    g.why = "the pipeline end to end on N = 64 in about a minute; not the physics";
+  } else if (preset == "standard") {
+    g.sizes = {1000};
+    g.pressures = {1e-2, 3e-3, 1e-3, 3e-4};
+    g.js = {1.0, 0.3, 0.1, 0.03, 0.01, 3e-3, 1e-3};
+    g.gdot_min = 3.1e-7;  // leaves out P = 3e-4, J = 1e-3 (a third of the cost alone)
+    g.replicas = 3;
+    g.why = "N = 1000, J from 1 to 1e-3 at four pressures, three replicas: about 2 h on 2 cores";
+  } else if (preset == "paper") {
+    g.sizes = {100, 300, 500, 1000, 3000, 10000};
+    g.pressures = {1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5};
+    g.js = {1.0, 0.3, 0.1, 0.03, 0.01, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5};
+    g.gdot_min = 3.9e-9;  // the seed's smallest shear rate, 3.98e-9
+    g.replicas = 3;
+    g.why = "the seed's grid: six sizes, P from 1e-2 to 1e-5, gdot down to 4e-9; a cluster";
+  } else {
+    throw ConfigError("--preset " + preset + "; allowed quick, standard, paper");
+  }
+  return g;
+}
+
+GridPreset finite_size_preset(const std::string& preset) {
+  GridPreset g = grid_preset(preset);
+  if (preset == "quick") {
+    g.sizes = {32, 48, 64, 96};
+    g.why = "four small sizes (the large-N fit needs four) in a few minutes; not the physics";
+  } else if (preset == "standard") {
+    g.sizes = {250, 500, 1000, 2000};
+    g.pressures = {1e-2, 3e-3, 1e-3};
+    g.js = {1.0, 0.3, 0.1, 0.03, 0.01, 3e-3};
+    g.gdot_min = 3e-6;
+    g.why = "four sizes from 250 to 2000, J from 1 to 3e-3, three replicas";
+  }
+  return g;
+}
+
+IntegratorChoice integrator_for(std::int64_t n, double pressure) {
+  if (pressure <= 1e-4)
+    return {"cvode", 0.0, 1e-5, "CVODE (rtol 1e-5): cheapest near jamming (P <= 1e-4)"};
+  if (n >= 500)
+    return {"respa", 1.0, 0.0, "RESPA, particles inner, dt = 1: stable at N >= 500"};
+  if (n >= 250)
+    return {"respa", 0.5, 0.0, "RESPA, particles inner, dt = 0.5: dt = 1 oscillates at N = 250"};
+  return {"euler", 0.1, 0.0, "Euler dt = 0.1: the seed's small-N step (lanes at dt >= 0.3)"};
+}
+
+std::string sweep_text(const GridPreset& g) {
+  toml::array n_axis, phi_axis, p_axis, rate_axis, teq_axis, tav_axis, sample_axis, integ_axis;
+  for (const auto n : g.sizes) {
+    for (const double p : g.pressures) {
+      for (const double j : g.js) {
+        const double gdot = j * p;
+        if (gdot < g.gdot_min)
+          continue;
+        const double t_eq =
+            round3(std::max({g.strain_eq / gdot, g.relax_pressure / p, g.t_eq_min}));
+        const double t_av = round3(std::max(g.strain_av / gdot, g.t_av_min));
+        n_axis.push_back(n);
+        phi_axis.push_back(std::round(phi_start(j, n) * 1e4) / 1e4);
+        p_axis.push_back(p);
+        rate_axis.push_back(gdot);
+        teq_axis.push_back(t_eq);
+        tav_axis.push_back(t_av);
+        sample_axis.push_back(round3(t_av / g.samples));
+        const IntegratorChoice ic = integrator_for(n, p);
+        toml::table integ{{"kind", ic.kind}};
+        if (ic.kind == "cvode")
+          integ.insert("rtol", ic.rtol);
+        else
+          integ.insert("dt", ic.dt);
+        integ_axis.push_back(std::move(integ));
+      }
+    }
+  }
+  toml::table zip;
+  zip.insert("system.N", n_axis);
+  zip.insert("system.phi", phi_axis);
+  zip.insert("ensemble.pressure", p_axis);
+  zip.insert("shear.rate", rate_axis);
+  zip.insert("run.t_eq", teq_axis);
+  zip.insert("run.t_av", tav_axis);
+  zip.insert("run.sample_every", sample_axis);
+  zip.insert("integrator", integ_axis);
+  // The base scene: what every point shares (the zip replaces the rest).
+  toml::table scene{
+      {"system", toml::table{{"N", 1000}, {"phi", 0.6}, {"alpha", 2.0}, {"seed", 1}}},
+      {"ensemble", toml::table{{"kind", "constant_pressure"}, {"pressure", 1e-3}, {"xi_V", 1e-4}}},
+      {"shear", toml::table{{"rate", 1e-4}}},
+      {"integrator", toml::table{{"kind", "respa"}, {"dt", 1.0}}},
+      {"run", toml::table{{"t_eq", 1000.0},
+                          {"t_av", 3000.0},
+                          {"sample_every", 3.0},
+                          {"round_sample_every", true},
+                          {"blocks", 20}}},
+      {"output", toml::table{{"checkpoint_every", 300.0}}}};
+  toml::table sweep{{"replicas", g.replicas},
+                    {"names_from", toml::array{"system.N", "ensemble.pressure", "shear.rate"}},
+                    {"zip", std::move(zip)}};
+  toml::table root{{"sweep", std::move(sweep)}, {"scene", std::move(scene)}};
+  std::ostringstream os;
+  os << "# The hard-sphere study's '" << g.name << "' points (" << g.why
+     << ").\n# Written by `jamflow study`; run by it, or by `jamflow sweep` like any sweep.\n"
+     << root << "\n";
+  return os.str();
+}
+
+}  // namespace jamflow::studies::hard_sphere

@@ -1,0 +1,52 @@
+// The hard-sphere study's state points: constant pressure, a grid of pressures P and viscous
+// numbers J = gdot xi_s / P for each N, as a sweep (sweep/): the points of a preset are written
+// as a sweep file, so they run on local cores, MPI ranks or a Slurm array like any sweep, and
+// a rerun finds the finished ones. The finite-size study uses the same points over more sizes.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace jamflow::studies::hard_sphere {
+
+struct GridPreset {
+  std::string name;
+  std::vector<std::int64_t> sizes;
+  std::vector<double> pressures;
+  std::vector<double> js;  // viscous numbers, for every pressure and size
+  double gdot_min = 0.0;   // points with a smaller gdot = J P are left out (cost)
+  int replicas = 3;
+  // Run length in strain: t_eq = strain_eq / gdot, t_av = strain_av / gdot, with floors in
+  // tau_0. The random start compacts on the time scale xi_s a / P (forces of order P a^2 move
+  // particles by a in that time): at N = 1000, P = 3e-4, J = 1 phi rose from 0.39 (the start's
+  // overlaps pushed it out) to within 0.002 of its steady value by t = 1.5 / P, so t_eq is also
+  // at least relax_pressure / P.
+  double strain_eq = 1.0, strain_av = 3.0;
+  double relax_pressure = 5.0;
+  double t_eq_min = 500.0, t_av_min = 1000.0;
+  int samples = 1000;  // per averaging window (20 blocks of 50)
+  std::string why;     // one line: what the preset is for
+};
+
+// quick (CI: the pipeline end to end, not the physics), standard (about 2 h on 2 cores:
+// N = 1000, J over 3 decades), paper (the seed's grid, for a cluster).
+GridPreset grid_preset(const std::string& preset);
+// The finite-size study's sizes over the same grid.
+GridPreset finite_size_preset(const std::string& preset);
+
+// The integrator of a point (the timestep study's findings, SPEC §4): CVODE (BDF, rtol 1e-5)
+// near jamming (P <= 1e-4), else RESPA with the particles on the inner level at dt = 1
+// (stable at N >= 500), dt = 0.5 for 250 <= N < 500, and explicit Euler at dt = 0.1 below
+// (the seed's N = 100 step, lanes form at dt >= 0.3). Returned as TOML inline-table text.
+struct IntegratorChoice {
+  std::string kind;
+  double dt = 0.0;  // 0 for CVODE
+  double rtol = 0.0;
+  std::string why;
+};
+IntegratorChoice integrator_for(std::int64_t n, double pressure);
+
+// Writes the preset's sweep file (base scene and the zip of every point) and returns its text.
+std::string sweep_text(const GridPreset& preset);
+
+}  // namespace jamflow::studies::hard_sphere

@@ -1,0 +1,318 @@
+#include "studies/hard-sphere/report.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "analysis/analyze_cli.hpp"
+#include "analysis/json.hpp"
+#include "lib/h5.hpp"
+#include "studies/common.hpp"
+
+namespace jamflow::studies::hard_sphere {
+namespace fs = std::filesystem;
+
+namespace {
+
+struct SizeLaw {
+  double inf, a, alpha;
+};
+// The seed's Table 2 (SPEC §5).
+const std::map<std::string, SizeLaw>& table2() {
+  static const std::map<std::string, SizeLaw> t = {
+      {"phi_J", {0.6474, -0.323, 0.852}}, {"b_phi", {0.391, 0.756, 0.505}},
+      {"C_phi", {0.0683, -1.15, 1.17}},   {"mu_J", {0.108, 0.279, 0.626}},
+      {"b_mu", {0.346, 2.93, 0.946}},     {"C_mu", {0.347, -1.44, 1.02}}};
+  return t;
+}
+const char* const kParameters[] = {"phi_J", "b_phi", "C_phi", "mu_J", "b_mu", "C_mu"};
+
+// The collected table: header and rows of text cells.
+struct Table {
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+  int column(const std::string& name) const {
+    for (std::size_t i = 0; i < header.size(); ++i) {
+      if (header[i] == name)
+        return static_cast<int>(i);
+    }
+    return -1;
+  }
+  double number(std::size_t row, const std::string& name) const {
+    const int c = column(name);
+    if (c < 0 || rows[row][std::size_t(c)].empty())
+      return std::nan("");
+    return std::stod(rows[row][std::size_t(c)]);
+  }
+  std::string text(std::size_t row, const std::string& name) const {
+    const int c = column(name);
+    return c < 0 ? "" : rows[row][std::size_t(c)];
+  }
+};
+
+Table read_table(const std::string& path) {
+  std::ifstream in(path);
+  Table t;
+  std::string line;
+  auto split = [](const std::string& l) {
+    std::vector<std::string> out;
+    std::stringstream ss(l);
+    std::string cell;
+    while (std::getline(ss, cell, ','))
+      out.push_back(cell);
+    if (!l.empty() && l.back() == ',')
+      out.emplace_back();
+    return out;
+  };
+  if (std::getline(in, line))
+    t.header = split(line);
+  while (std::getline(in, line)) {
+    if (!line.empty())
+      t.rows.push_back(split(line));
+  }
+  return t;
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream os;
+  os << in.rdbuf();
+  return os.str();
+}
+
+// "v +- e" of a {"value", "error"} member, and its value and error.
+bool measured(const analysis::Json& j, const std::string& key, double& v, double& e) {
+  if (!j.is_object() || !j.contains(key))
+    return false;
+  const auto& m = j.at(key);
+  if (!m.is_object() || !m.contains("value"))
+    return false;
+  v = m.at("value").as_number();
+  e = m.contains("error") ? m.at("error").as_number() : std::nan("");
+  return true;
+}
+
+std::string sigma_text(double ours, double err, double seed) {
+  if (!(err > 0.0) || !std::isfinite(ours))
+    return "n/a";
+  const double z = (ours - seed) / err;
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%+.1f sigma%s", z, std::fabs(z) > 2.0 ? " (disagrees)" : "");
+  return buf;
+}
+
+}  // namespace
+
+double seed_value(const std::string& parameter, double n) {
+  const SizeLaw& law = table2().at(parameter);
+  return n > 0.0 ? law.inf + law.a * std::pow(n, -law.alpha) : law.inf;
+}
+
+int analyze_and_report(const std::string& study, const GridPreset& grid, const SweepStudy& run,
+                       const StudyOptions& options, double wall_seconds) {
+  const std::string out = options.out_dir;
+  const std::string json_path = (fs::path(out) / "analysis.json").string();
+  // 1. The analysis, exactly as `jamflow analyze hard-sphere TABLE -o analysis.json` runs it.
+  std::vector<std::string> args = {"hard-sphere", run.table, "-o", json_path};
+  if (options.no_plots)
+    args.push_back("--no-plots");
+  const int analysis_status = analysis::analyze_main(args);
+  analysis::Json result = analysis::Json::object();
+  if (fs::exists(json_path)) {
+    try {
+      result = analysis::Json::parse(read_file(json_path));
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "%s: warning: cannot read %s: %s\n", study.c_str(), json_path.c_str(),
+                   e.what());
+    }
+  }
+
+  // 2. The flow curves and mu(J), phi(J) (the seed's Figs. 2-3) from the table.
+  run_plot("hard-sphere/plot.py", {run.table, (fs::path(out) / "flow_curves.png").string()},
+           options);
+
+  // 3. The table and the fitted parameters as HDF5.
+  const Table table = read_table(run.table);
+  {
+    H5Writer w((fs::path(out) / (study + ".h5")).string());
+    w.attr("/", "study", study);
+    w.attr("/", "preset", grid.name);
+    w.attr("/", "analysis_status", static_cast<std::int64_t>(analysis_status));
+    w.group("/points");
+    w.attr("/points", "names", [&] {
+      std::string s;
+      for (std::size_t r = 0; r < table.rows.size(); ++r) {
+        if (r)
+          s += '\n';
+        s += table.text(r, "point");
+      }
+      return s;
+    }());
+    for (const char* col : {"N", "P", "gdot", "phi", "phi_err", "pressure", "pressure_err",
+                            "sigma_xy", "sigma_xy_err", "eta", "eta_err", "mu", "mu_err", "J",
+                            "energy_balance", "replicas", "steady", "stable", "decorrelated"}) {
+      std::vector<double> v;
+      for (std::size_t r = 0; r < table.rows.size(); ++r)
+        v.push_back(table.number(r, col));
+      w.dataset(std::string("/points/") + col, v);
+    }
+    if (result.is_object() && result.contains("sizes")) {
+      for (const auto& [n, fit] : result.at("sizes").members()) {
+        const std::string g = "/fits/N" + n;
+        w.group(g);
+        for (const char* p : kParameters) {
+          double v = 0.0, e = 0.0;
+          if (measured(fit, p, v, e)) {
+            w.attr(g, p, v);
+            w.attr(g, std::string(p) + "_err", e);
+          }
+        }
+      }
+    }
+    w.commit();
+  }
+
+  // 4. The report.
+  std::ostringstream md;
+  md << "# " << study << " study, preset `" << grid.name << "`\n\n";
+  md << "Constant pressure, harmonic spheres (alpha_r = 2), " << grid.why << ". ";
+  md << "Each point runs t_eq = max(" << num(grid.strain_eq, 3) << "/gdot, "
+     << num(grid.relax_pressure, 3) << "/P, " << num(grid.t_eq_min, 3) << ") and t_av = max("
+     << num(grid.strain_av, 3) << "/gdot, " << num(grid.t_av_min, 3) << "), " << grid.replicas
+     << " replicas (seeds 1.." << grid.replicas << "); integrators:";
+  {
+    std::map<std::string, int> seen;
+    for (const auto n : grid.sizes) {
+      for (const double p : grid.pressures)
+        ++seen[integrator_for(n, p).why];
+    }
+    for (const auto& [why, count] : seen)
+      md << " " << why << ";";
+  }
+  md << " (the timestep study's findings, SPEC §4).\n\n";
+  md << "- Points: " << run.plan.points.size() << " x " << run.plan.replicas << " replicas, "
+     << run.finished << " finished in every replica (table.csv); the sweep is in runs/ "
+     << "(`jamflow sweep sweep.toml --out runs`).\n";
+  md << "- Cost: estimated " << num(run.cpu_hours_estimate, 3)
+     << " CPU-hours at Euler's throughput; this invocation took " << num(wall_seconds / 60.0, 3)
+     << " min of wall time (points finished earlier are not rerun).\n";
+
+  // Verdicts: what analyze leaves out.
+  std::vector<std::vector<std::string>> flagged;
+  for (std::size_t r = 0; r < table.rows.size(); ++r) {
+    std::string why;
+    for (const char* v : {"steady", "stable", "decorrelated"}) {
+      if (table.number(r, v) == 0.0)
+        why.append(why.empty() ? "" : ", ").append("not ").append(v);
+    }
+    if (!why.empty()) {
+      const bool kept = why == "not decorrelated" && table.number(r, "replicas") >= 2.0;
+      flagged.push_back(
+          {table.text(r, "point"), why, kept ? "kept: replica-scatter errors" : "left out"});
+    }
+  }
+  md << "\n## Verdicts\n\n";
+  if (flagged.empty()) {
+    md << "Every point is steady, stable and decorrelated in every replica.\n";
+  } else {
+    md << "`jamflow analyze` leaves out points that are not steady or not stable in some "
+          "replica; a point whose blocks are shorter than 2 tau (not decorrelated) is kept "
+          "when it has several replicas, because its error bars then include the scatter of "
+          "independent replicas (analysis/README.md).\n\n";
+    md << markdown_table({"point", "verdict", "used"}, flagged);
+  }
+
+  md << "\n## Fits per N (phi = phi_J - C_phi J^b_phi, mu = mu_J + C_mu J^b_mu)\n\n";
+  if (analysis_status != 0)
+    md << "`jamflow analyze hard-sphere` exited with status " << analysis_status
+       << " (see analysis.md and the messages above): what it could not fit is missing here.\n\n";
+  if (result.is_object() && result.contains("sizes")) {
+    for (const auto& [n, fit] : result.at("sizes").members()) {
+      const double nn = std::stod(n);
+      double used = fit.contains("points_used") ? fit.at("points_used").as_number() : 0.0;
+      md << "### N = " << n << " (" << num(used, 3) << " points in the P -> 0 envelope)\n\n";
+      std::vector<std::vector<std::string>> rows;
+      for (const char* p : kParameters) {
+        double v = 0.0, e = 0.0;
+        if (!measured(fit, p, v, e))
+          continue;
+        const double seed = seed_value(p, nn);
+        rows.push_back({p, pm(v, e), num(seed, 4), sigma_text(v, e, seed)});
+      }
+      md << markdown_table({"parameter", "jamflow", "seed at this N (Table 2 law)", "difference"},
+                           rows);
+      md << "\n";
+    }
+  } else {
+    md << "No size could be fitted.\n";
+  }
+  if (result.is_object() && result.contains("extrapolated")) {
+    const auto& ex = result.at("extrapolated");
+    md << "## N -> infinity\n\n";
+    if (ex.contains("skipped")) {
+      md << "Not extrapolated: " << ex.at("skipped").as_string() << "\n\n";
+    } else {
+      std::vector<std::vector<std::string>> rows;
+      for (const char* p : kParameters) {
+        if (!ex.contains(p))
+          continue;
+        double v = 0.0, e = 0.0;
+        const auto& pe = ex.at(p);
+        const std::string status = pe.contains("status") ? pe.at("status").as_string() : "";
+        if (measured(pe, "inf", v, e))
+          rows.push_back({p, pm(v, e), num(seed_value(p, 0.0), 4),
+                          sigma_text(v, e, seed_value(p, 0.0)), status});
+        else
+          rows.push_back({p, "-", num(seed_value(p, 0.0), 4), "n/a", status});
+      }
+      md << markdown_table({"parameter", "jamflow O_inf", "seed O_inf", "difference", "fit"}, rows);
+      double v = 0.0, e = 0.0;
+      if (result.contains("nu")) {
+        const auto& nu = result.at("nu");
+        if (measured(nu, "from_phi", v, e))
+          md << "\nnu from phi: " << pm(v, e) << " (seed 0.153, " << sigma_text(v, e, 0.153) << ")";
+        if (measured(nu, "from_mu", v, e))
+          md << "; nu from mu: " << pm(v, e) << " (seed 0.184, " << sigma_text(v, e, 0.184) << ")";
+        md << "\n\n";
+      }
+    }
+  }
+  if (result.is_object() && result.contains("viscosity")) {
+    const auto& vis = result.at("viscosity");
+    double v = 0.0, e = 0.0;
+    md << "## Viscosity divergence (Fig. 7)\n\n";
+    if (measured(vis, "effective_exponent", v, e)) {
+      md << "Effective exponent beta = -d ln eta / d ln(phi_J - phi) over the window: " << pm(v, e)
+         << "; the seed's effective range is [1.67, 2.55] ("
+         << (v + 2 * e >= 1.67 && v - 2 * e <= 2.55 ? "inside within 2 sigma" : "outside")
+         << ").\n";
+    }
+    if (measured(vis, "exponent_1", v, e))
+      md << "Asymptotic exponent 1/b_phi = " << pm(v, e) << " (seed 2.55, "
+         << sigma_text(v, e, 2.55) << ").\n";
+  }
+  // Decades of viscosity covered by the points (eta/eta_0 = mu / J).
+  double eta_min = 1e300, eta_max = 0.0;
+  for (std::size_t r = 0; r < table.rows.size(); ++r) {
+    const double eta = table.number(r, "mu") / table.number(r, "J");
+    if (std::isfinite(eta) && eta > 0.0) {
+      eta_min = std::min(eta_min, eta);
+      eta_max = std::max(eta_max, eta);
+    }
+  }
+  if (eta_max > 0.0)
+    md << "\nThe points cover eta/eta_0 = mu/J from " << num(eta_min, 3) << " to "
+       << num(eta_max, 3) << ": " << num(std::log10(eta_max / eta_min), 3) << " decades.\n";
+  md << "\nDetails of the fits, the envelope of every point and the figures of "
+        "`jamflow analyze hard-sphere`: analysis.md. Flow curves: flow_curves.png.\n";
+  write_text((fs::path(out) / "report.md").string(), md.str());
+  if (!options.quiet)
+    std::printf("%s: %s\n", study.c_str(), (fs::path(out) / "report.md").c_str());
+  return analysis_status == 0 ? 0 : 1;
+}
+
+}  // namespace jamflow::studies::hard_sphere

@@ -1,0 +1,23 @@
+// The hard-sphere and finite-size studies' analysis and report: the collected table goes
+// through `jamflow analyze hard-sphere` itself (one code path: the P -> 0 envelope, the fits
+// per N and the large-N extrapolation), then the study adds the flow curves (the seed's
+// Fig. 2-3), the comparison with the seed's numbers in sigma, the verdicts and the cost.
+#pragma once
+#include <string>
+
+#include "studies/hard-sphere/points.hpp"
+#include "studies/study.hpp"
+#include "studies/sweep_study.hpp"
+
+namespace jamflow::studies::hard_sphere {
+
+// Writes OUT/analysis.json (+ .md, PNGs: what `jamflow analyze hard-sphere -o` writes),
+// OUT/flow_curves.png, OUT/<study>.h5 and OUT/report.md. Returns the exit status.
+int analyze_and_report(const std::string& study, const GridPreset& grid, const SweepStudy& run,
+                       const StudyOptions& options, double wall_seconds);
+
+// The seed's value of a Table 2 parameter at size N from its size law
+// O(N) = O_inf + A_O N^-alpha_O (SPEC §5); N <= 0 gives O_inf.
+double seed_value(const std::string& parameter, double n);
+
+}  // namespace jamflow::studies::hard_sphere
