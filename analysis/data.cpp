@@ -196,6 +196,57 @@ TableForm table_form(const CsvTable& t) {
                    join(kShearColumns) + "; missing " + join(missing_s) + ")");
 }
 
+// Rows of a collected sweep table (`jamflow sweep --collect`) carry the runs' verdicts in the
+// columns steady, stable and decorrelated (1 pass, 0 fail, empty not checked). A row that is
+// not steady or not stable in some replica is left out. One whose blocks are shorter than two
+// correlation times (not decorrelated) is kept when it has two replicas or more: its errors
+// then include the scatter of independent replicas, which needs no decorrelated blocks.
+// Returns the reason to leave the row out, or "".
+std::string failed_verdicts(const CsvTable& t, std::size_t r) {
+  std::string why;
+  auto failed = [&](const char* name) {
+    const int c = t.column(name);
+    return c >= 0 && t.rows[r][static_cast<std::size_t>(c)] == "0";
+  };
+  for (const char* v : {"steady", "stable"}) {
+    if (failed(v))
+      why.append(why.empty() ? "" : ", ").append("not ").append(v);
+  }
+  if (failed("decorrelated")) {
+    const int c = t.column("replicas");
+    const bool replicas = c >= 0 && std::atof(t.rows[r][static_cast<std::size_t>(c)].c_str()) >= 2;
+    if (!replicas)
+      why.append(why.empty() ? "" : ", ").append("not decorrelated (one replica)");
+  }
+  return why;
+}
+
+// The rows of a table that the analyses use, with one note on stderr for those left out.
+std::vector<std::size_t> usable_rows(const CsvTable& t) {
+  std::vector<std::size_t> rows;
+  std::string left;
+  std::size_t count = 0;
+  for (std::size_t r = 0; r < t.rows.size(); ++r) {
+    const std::string why = failed_verdicts(t, r);
+    if (why.empty()) {
+      rows.push_back(r);
+      continue;
+    }
+    ++count;
+    if (count <= 10)
+      left.append(left.empty() ? "" : "; ")
+          .append("line ")
+          .append(std::to_string(t.line_numbers[r]))
+          .append(": ")
+          .append(why);
+  }
+  if (count > 0) {
+    std::fprintf(stderr, "note: %s: %zu of %zu rows left out, their verdicts failed (%s%s)\n",
+                 t.path.c_str(), count, t.rows.size(), left.c_str(), count > 10 ? "; ..." : "");
+  }
+  return rows;
+}
+
 GranularPoint granular_from_row(const CsvTable& t, std::size_t r) {
   GranularPoint p;
   p.source = t.path + ":" + std::to_string(t.line_numbers[r]);
@@ -472,7 +523,7 @@ std::vector<GranularPoint> read_granular(const std::vector<std::string>& paths) 
                        "); the granular analyses need constant-pressure data with columns " +
                        join(kGranularColumns));
     }
-    for (std::size_t r = 0; r < t.rows.size(); ++r)
+    for (const std::size_t r : usable_rows(t))
       points.push_back(granular_from_row(t, r));
   }
   return merge_repeats(std::move(points));
@@ -508,7 +559,7 @@ std::vector<ShearPoint> read_shear(const std::vector<std::string>& paths) {
     }
     CsvTable t = read_csv(path);
     TableForm form = table_form(t);
-    for (std::size_t r = 0; r < t.rows.size(); ++r)
+    for (const std::size_t r : usable_rows(t))
       points.push_back(shear_from_row(t, r, form));
   }
   return merge_repeats(std::move(points));

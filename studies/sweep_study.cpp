@@ -18,6 +18,7 @@ std::optional<int> run_sweep_study(const std::string& study, const std::string& 
   const std::string file = (fs::path(options.out_dir) / "sweep.toml").string();
   write_text(file, sweep_text);
   out.plan = sweep::load_plan(file, (fs::path(options.out_dir) / "runs").string());
+  out.plan.name = study;  // for the progress line
   const sweep::CostEstimate cost = sweep::estimate_cost(out.plan);
   out.cpu_hours_estimate = cost.cpu_hours;
   if (options.dry_run) {

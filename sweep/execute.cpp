@@ -182,6 +182,8 @@ void Coordinator::started(std::size_t task) {
   state_[task] = TaskState::kRunning;
   started_at_[task] = now_seconds();
   ++running_;
+  if (!tty_)
+    last_print_ = -1.0;
   tick();
 }
 
@@ -246,8 +248,9 @@ void Coordinator::tick() {
   if (quiet_)
     return;
   const double now = now_seconds();
-  // On a terminal the line is redrawn every second; in a log, a line at each change.
-  if (tty_ ? (last_print_ >= 0.0 && now - last_print_ < 1.0) : last_print_ >= 0.0)
+  // On a terminal the line is redrawn every second; in a log, a line at each change and at
+  // least every minute.
+  if (last_print_ >= 0.0 && now - last_print_ < (tty_ ? 1.0 : 60.0))
     return;
   last_print_ = now;
   std::fprintf(stderr, "%s%s%s", tty_ ? "\r\033[K" : "", line().c_str(), tty_ ? "" : "\n");

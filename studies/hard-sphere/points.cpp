@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <sstream>
 
 #include <toml++/toml.h>
@@ -13,12 +15,12 @@ namespace jamflow::studies::hard_sphere {
 
 namespace {
 
-// Three significant digits: run lengths that read well in names and files.
+// Three significant digits, as the double nearest to that decimal (so 9e-05, not
+// 8.999999999999999e-05): run lengths and rates that read well in names and files.
 double round3(double x) {
-  if (!(x > 0.0))
-    return x;
-  const double scale = std::pow(10.0, std::floor(std::log10(x)) - 2.0);
-  return std::round(x / scale) * scale;
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", x);
+  return std::strtod(buf, nullptr);
 }
 
 // Starting packing fraction: the seed's fit phi = phi_J - C_phi J^b_phi with its finite-size
@@ -85,12 +87,19 @@ GridPreset finite_size_preset(const std::string& preset) {
 
 IntegratorChoice integrator_for(std::int64_t n, double pressure) {
   if (pressure <= 1e-4)
-    return {"cvode", 0.0, 1e-5, "CVODE (rtol 1e-5): cheapest near jamming (P <= 1e-4)"};
+    return {"cvode", 0.0, 1e-5, "", 0, "CVODE (rtol 1e-5): cheapest near jamming (P <= 1e-4)"};
   if (n >= 500)
-    return {"respa", 1.0, 0.0, "RESPA, particles inner, dt = 1: stable at N >= 500"};
+    return {"respa", 1.0, 0.0, "", 0, "RESPA, particles inner, dt = 1: stable at N >= 500"};
   if (n >= 250)
-    return {"respa", 0.5, 0.0, "RESPA, particles inner, dt = 0.5: dt = 1 oscillates at N = 250"};
-  return {"euler", 0.1, 0.0, "Euler dt = 0.1: the seed's small-N step (lanes at dt >= 0.3)"};
+    return {"respa", 0.5, 0.0,
+            "",      0,   "RESPA, particles inner, dt = 0.5: dt = 1 oscillates at N = 250"};
+  return {"respa",
+          0.1,
+          0.0,
+          "piston",
+          8,
+          "RESPA, piston inner (8 sub-steps), dt = 0.1 below N = 250: a stiff piston in a small "
+          "box"};
 }
 
 std::string sweep_text(const GridPreset& g) {
@@ -98,7 +107,7 @@ std::string sweep_text(const GridPreset& g) {
   for (const auto n : g.sizes) {
     for (const double p : g.pressures) {
       for (const double j : g.js) {
-        const double gdot = j * p;
+        const double gdot = round3(j * p);  // 9e-05, not 8.999999999999999e-05
         if (gdot < g.gdot_min)
           continue;
         const double t_eq =
@@ -117,6 +126,10 @@ std::string sweep_text(const GridPreset& g) {
           integ.insert("rtol", ic.rtol);
         else
           integ.insert("dt", ic.dt);
+        if (!ic.inner.empty()) {
+          integ.insert("inner", ic.inner);
+          integ.insert("n_inner", ic.n_inner);
+        }
         integ_axis.push_back(std::move(integ));
       }
     }

@@ -36,12 +36,16 @@ GridPreset finite_size_preset(const std::string& preset);
 
 // The integrator of a point (the timestep study's findings, SPEC §4): CVODE (BDF, rtol 1e-5)
 // near jamming (P <= 1e-4), else RESPA with the particles on the inner level at dt = 1
-// (stable at N >= 500), dt = 0.5 for 250 <= N < 500, and explicit Euler at dt = 0.1 below
-// (the seed's N = 100 step, lanes form at dt >= 0.3). Returned as TOML inline-table text.
+// (stable at N >= 500), dt = 0.5 for 250 <= N < 500, and below N = 250 RESPA with the piston
+// on the inner level (8 sub-steps) at dt = 0.1: the piston's rate K / (V xi_V) is large in small
+// boxes (explicit Euler at dt = 0.1 oscillated at N = 64, P = 1e-2: force-step correlation
+// -0.53, energy balance 0.002), and dt = 0.1 is the seed's small-N step (lanes at dt >= 0.3).
 struct IntegratorChoice {
   std::string kind;
   double dt = 0.0;  // 0 for CVODE
   double rtol = 0.0;
+  std::string inner;  // RESPA's inner level
+  int n_inner = 0;
   std::string why;
 };
 IntegratorChoice integrator_for(std::int64_t n, double pressure);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <string>
@@ -45,6 +46,28 @@ TEST(CsvReader, ReadsGranularTableInAnyColumnOrderWithComments) {
   EXPECT_DOUBLE_EQ(pts[0].j, 1e-6 / 1e-4);
   EXPECT_DOUBLE_EQ(pts[1].phi, 0.62);
   EXPECT_DOUBLE_EQ(pts[1].mu_err, 0.002);
+}
+
+// A collected sweep table: rows whose verdicts failed are left out (not steady, not stable;
+// not decorrelated only with a single replica), the rest are read as usual.
+TEST(CsvReader, CollectedTableRowsWithFailedVerdictsAreLeftOut) {
+  ScratchDir dir;
+  auto path = dir.write("sweep.csv",
+                        "point,N,P,gdot,phi,phi_err,mu,mu_err,replicas,steady,stable,decorrelated\n"
+                        "a,1000,1e-4,1e-6,0.63,1e-4,0.2,0.001,3,1,1,1\n"
+                        "b,1000,1e-4,1e-5,0.62,2e-4,0.25,0.002,3,0,1,1\n"
+                        "c,1000,1e-4,1e-7,0.64,2e-4,0.15,0.002,3,1,0,1\n"
+                        "d,1000,1e-4,1e-8,0.645,2e-4,0.13,0.002,3,1,1,0\n"
+                        "e,1000,1e-4,1e-4,0.60,2e-4,0.3,0.002,1,1,1,0\n"
+                        "f,1000,1e-4,1e-3,0.58,2e-4,0.4,0.002,1,1,1,\n");
+  const auto pts = read_granular({path});
+  std::vector<double> rates;
+  for (const auto& p : pts)
+    rates.push_back(p.shear_rate);
+  std::sort(rates.begin(), rates.end());
+  // a (all pass), d (not decorrelated, 3 replicas), f (decorrelated not checked)
+  EXPECT_EQ(rates, (std::vector<double>{1e-8, 1e-6, 1e-3}));
+  EXPECT_EQ(read_shear({path}).size(), 3u);
 }
 
 TEST(CsvReader, MalformedValueNamesFileLineAndColumn) {
