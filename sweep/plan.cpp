@@ -125,7 +125,8 @@ void anchor_init(Scene& scene, const fs::path& dir) {
 }
 
 // Expected particle force evaluations of one replica: N x (t_eq + t_av, or max_time) x force
-// passes per unit time. Euler: 1 / dt; RESPA: n_inner (x2 with Heun sub-steps) / dt; CVODE,
+// passes per unit time. Euler: 1 / dt; RESPA: n_inner (particles inner) or n_inner + 2 (piston
+// inner), x2 with Heun sub-steps, per dt; CVODE,
 // whose steps adapt: 4 per tau_0, what RESPA's dt = 1 costs (a relative cost only).
 double expected_cost(const RunSpec& spec) {
   const double n = spec.init_state ? double(spec.init_state->size()) : double(spec.n);
@@ -138,7 +139,14 @@ double expected_cost(const RunSpec& spec) {
       const auto it = in.values.find("inner_scheme");
       const bool heun = it != in.values.end() && std::holds_alternative<std::string>(it->second) &&
                         std::get<std::string>(it->second) == "heun";
-      per_time *= in.number("n_inner").value_or(4.0) * (heun ? 2.0 : 1.0);
+      // Particles inner: n_inner passes a step. Piston inner: two particle half-steps, and each
+      // piston sub-step needs the virial of the dilated state, a pass too.
+      const auto inner = in.values.find("inner");
+      const bool piston = inner != in.values.end() &&
+                          std::holds_alternative<std::string>(inner->second) &&
+                          std::get<std::string>(inner->second) == "piston";
+      const double n_inner = in.number("n_inner").value_or(4.0);
+      per_time *= (piston ? n_inner + 2.0 : n_inner) * (heun ? 2.0 : 1.0);
     }
   }
   return n * length * per_time;

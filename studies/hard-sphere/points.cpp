@@ -40,16 +40,16 @@ GridPreset grid_preset(const std::string& preset) {
   GridPreset g;
   g.name = preset;
   if (preset == "quick") {
-    g.sizes = {64};
-    g.pressures = {1e-2, 3e-3};
-    g.js = {1.0, 0.3, 0.1, 0.03};
+    g.sizes = {256};
+    g.pressures = {3e-3, 1e-3, 3e-4};
+    g.js = {1.0, 0.3, 0.1};
     g.replicas = 2;
     g.strain_eq = 1.0;
     g.strain_av = 2.0;
     g.t_eq_min = 100.0;
     g.t_av_min = 200.0;
     g.samples = 200;
-    g.why = "the pipeline end to end on N = 64 in about a minute; not the physics";
+    g.why = "the pipeline end to end on N = 256 in about a CPU-minute; not the physics";
   } else if (preset == "standard") {
     g.sizes = {1000};
     g.pressures = {1e-2, 3e-3, 1e-3, 3e-4};
@@ -73,8 +73,9 @@ GridPreset grid_preset(const std::string& preset) {
 GridPreset finite_size_preset(const std::string& preset) {
   GridPreset g = grid_preset(preset);
   if (preset == "quick") {
-    g.sizes = {32, 48, 64, 96};
-    g.why = "four small sizes (the large-N fit needs four) in a few minutes; not the physics";
+    g.sizes = {256, 362, 512, 724};
+    g.pressures = {3e-3, 1e-3};
+    g.why = "four sizes (the large-N fit needs four) in a few CPU-minutes; not the physics";
   } else if (preset == "standard") {
     g.sizes = {250, 500, 1000, 2000};
     g.pressures = {1e-2, 3e-3, 1e-3};

@@ -1,0 +1,81 @@
+// The hard-sphere and finite-size studies' points: the sweep file they write is a valid sweep
+// whose points are the preset's grid, named by N, P and gdot, with the integrator the protocol
+// prescribes for each size and pressure.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+
+#include "studies/hard-sphere/points.hpp"
+#include "studies/hard-sphere/report.hpp"
+#include "sweep/plan.hpp"
+
+namespace jamflow::studies::hard_sphere {
+namespace {
+
+sweep::Plan plan_of(const GridPreset& g) {
+  return sweep::parse_plan(sweep_text(g), "hs.toml", "/tmp", "/tmp/hs-runs");
+}
+
+TEST(HardSpherePoints, StandardGridIsEveryPressureAndJAboveTheRateFloor) {
+  const GridPreset g = grid_preset("standard");
+  const sweep::Plan p = plan_of(g);
+  std::size_t expected = 0;
+  for (double pr : g.pressures) {
+    for (double j : g.js)
+      expected += j * pr >= g.gdot_min ? 1 : 0;
+  }
+  EXPECT_EQ(p.points.size(), expected);
+  EXPECT_EQ(p.replicas, g.replicas);
+  std::set<std::string> names;
+  for (const auto& pt : p.points) {
+    names.insert(pt.name);
+    const double pressure = pt.scene.table("ensemble")->get("pressure")->as_floating_point()->get();
+    const double rate = pt.scene.table("shear")->get("rate")->as_floating_point()->get();
+    const double t_eq = pt.scene.table("run")->get("t_eq")->as_floating_point()->get();
+    const double t_av = pt.scene.table("run")->get("t_av")->as_floating_point()->get();
+    // Lengths in strain and in units of the compaction time 1/P (3 significant digits).
+    EXPECT_GE(t_eq * rate, g.strain_eq * 0.995) << pt.name;
+    EXPECT_GE(t_eq * pressure, g.relax_pressure * 0.995) << pt.name;
+    EXPECT_GE(t_av * rate, g.strain_av * 0.995) << pt.name;
+    EXPECT_EQ(pt.name.find("99999"), std::string::npos) << pt.name;  // rounded decimals
+    EXPECT_EQ(pt.scene.table("integrator")->get("kind")->as_string()->get(), "respa");
+  }
+  EXPECT_EQ(names.size(), p.points.size());
+  EXPECT_NE(names.count("pressure-0.003_rate-9e-05_N-1000"), 0u);
+}
+
+TEST(HardSpherePoints, IntegratorFollowsSizeAndPressure) {
+  EXPECT_EQ(integrator_for(1000, 1e-5).kind, "cvode");
+  EXPECT_EQ(integrator_for(1000, 1e-3).kind, "respa");
+  EXPECT_EQ(integrator_for(1000, 1e-3).dt, 1.0);
+  EXPECT_EQ(integrator_for(300, 1e-3).dt, 0.5);
+  EXPECT_EQ(integrator_for(100, 1e-3).inner, "piston");
+  // The paper preset's sweep is valid in every point (CVODE has no dt key, RESPA has one).
+  const sweep::Plan paper = plan_of(grid_preset("paper"));
+  bool cvode = false, piston = false;
+  for (const auto& pt : paper.points) {
+    const auto* in = pt.scene.table("integrator");
+    cvode = cvode || in->get("kind")->as_string()->get() == "cvode";
+    piston = piston || (in->get("inner") && in->get("inner")->as_string()->get() == "piston");
+    if (in->get("kind")->as_string()->get() == "cvode") {
+      EXPECT_EQ(in->get("dt"), nullptr);
+    }
+  }
+  EXPECT_TRUE(cvode);
+  EXPECT_TRUE(piston);
+}
+
+TEST(HardSpherePoints, SeedValuesFollowTable2) {
+  // The N = 1000 values from Table 2's size law.
+  EXPECT_NEAR(seed_value("phi_J", 1000), 0.6465, 5e-5);
+  EXPECT_NEAR(seed_value("b_phi", 1000), 0.414, 5e-4);
+  EXPECT_NEAR(seed_value("C_phi", 1000), 0.068, 5e-4);
+  EXPECT_NEAR(seed_value("mu_J", 1000), 0.1117, 5e-5);
+  EXPECT_NEAR(seed_value("b_mu", 1000), 0.350, 5e-4);
+  EXPECT_NEAR(seed_value("C_mu", 1000), 0.346, 5e-4);
+  EXPECT_DOUBLE_EQ(seed_value("phi_J", 0), 0.6474);
+}
+
+}  // namespace
+}  // namespace jamflow::studies::hard_sphere
