@@ -1,6 +1,9 @@
 #include "sweep/collect.hpp"
 
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -48,12 +51,49 @@ std::string csv_text(std::string s) {
   return s;
 }
 
+// The table as HDF5 (h5py: f["table"]["phi"][:]): a numeric column (empty cells: NaN) is a
+// dataset /table/<column>; a text column is a string attribute of /table with its cells joined
+// by newlines; the attribute "columns" lists the columns in order, the same way.
+void write_h5_table(const std::string& path, const std::vector<std::string>& header,
+                    const std::vector<std::vector<std::string>>& table) {
+  H5Writer w(path, ".tmp." + std::to_string(::getpid()));
+  w.group("/table");
+  std::string columns;
+  for (std::size_t c = 0; c < header.size(); ++c) {
+    columns.append(c ? "\n" : "").append(header[c]);
+    std::vector<double> numbers;
+    bool numeric = true;
+    for (const auto& row : table) {
+      const std::string& cell = row[c];
+      if (cell.empty()) {
+        numbers.push_back(std::nan(""));
+        continue;
+      }
+      char* end = nullptr;
+      const double v = std::strtod(cell.c_str(), &end);
+      numeric = numeric && end && *end == '\0';
+      numbers.push_back(v);
+    }
+    if (numeric && !table.empty()) {
+      w.dataset("/table/" + header[c], numbers);
+    } else {
+      std::string text;
+      for (std::size_t r = 0; r < table.size(); ++r)
+        text.append(r ? "\n" : "").append(table[r][c]);
+      w.attr("/table", header[c], text);
+    }
+  }
+  w.attr("/table", "columns", columns);
+  w.attr("/table", "rows", static_cast<std::int64_t>(table.size()));
+  w.commit();
+}
+
 }  // namespace
 
 Collected collect(const Plan& plan, const std::string& path) {
   const std::string ext = fs::path(path).extension().string();
-  if (ext != ".csv")
-    throw ConfigError("--collect '" + path + "': allowed a table file ending in .csv");
+  if (ext != ".csv" && ext != ".h5")
+    throw ConfigError("--collect '" + path + "': allowed a table file ending in .csv or .h5");
   Collected out;
   const auto tasks = plan.tasks();
   std::vector<std::vector<const Task*>> of_point(plan.points.size());
@@ -110,10 +150,7 @@ Collected collect(const Plan& plan, const std::string& path) {
        {"J", "energy_balance", "replicas", "steady", "stable", "decorrelated", "folder"})
     header.push_back(c);
 
-  std::ostringstream os;
-  for (std::size_t i = 0; i < header.size(); ++i)
-    os << (i ? "," : "") << header[i];
-  os << "\n";
+  std::vector<std::vector<std::string>> table;
   for (const auto& row : rows) {
     const auto& v = row.sum.values;
     auto get = [&](const std::string& k) {
@@ -142,11 +179,22 @@ Collected collect(const Plan& plan, const std::string& path) {
     for (const char* verdict : {"steady", "stable", "decorrelated"})
       cells.push_back(cell(get(verdict)));
     cells.push_back(csv_text(fs::relative(plan.point_dir(*row.point), plan.out_dir).string()));
-    for (std::size_t i = 0; i < cells.size(); ++i)
-      os << (i ? "," : "") << cells[i];
-    os << "\n";
+    table.push_back(std::move(cells));
   }
-  write_atomically(path, os.str());
+  if (ext == ".csv") {
+    std::ostringstream os;
+    for (std::size_t i = 0; i < header.size(); ++i)
+      os << (i ? "," : "") << header[i];
+    os << "\n";
+    for (const auto& cells : table) {
+      for (std::size_t i = 0; i < cells.size(); ++i)
+        os << (i ? "," : "") << cells[i];
+      os << "\n";
+    }
+    write_atomically(path, os.str());
+  } else {
+    write_h5_table(path, header, table);
+  }
   out.rows = rows.size();
   return out;
 }

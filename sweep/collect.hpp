@@ -19,7 +19,8 @@ struct Collected {
 // decorrelated (1 pass, 0 fail, empty not checked), folder. With several replicas each _err is
 // the larger of the block error propagated to the mean and the replica scatter error
 // (std / sqrt(R)): the block error alone is too small when blocks are short (README).
-// `path` ends in .csv. Throws IoError if it cannot be written (atomically).
+// `path` ends in .csv, or in .h5 for the same table as HDF5 (numeric columns are datasets
+// /table/<column>, text columns string attributes of /table). Written atomically.
 Collected collect(const Plan& plan, const std::string& path);
 
 }  // namespace jamflow::sweep
