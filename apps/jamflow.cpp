@@ -18,6 +18,7 @@
 #include "lib/cli_exit.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
+#include "lib/version.hpp"
 #include "studies/study.hpp"
 
 namespace {
@@ -185,7 +186,7 @@ int main(int argc, char** argv) {
       return args.empty() ? 2 : 0;
     }
     if (args[0] == "--version" || args[0] == "-V") {
-      std::printf("jamflow %s (git %s)\n", JAMFLOW_VERSION, JAMFLOW_GIT_COMMIT);
+      std::printf("jamflow %s (git %s)\n", JAMFLOW_VERSION, jamflow::git_commit());
       return 0;
     }
     const std::string cmd = args[0];

@@ -22,13 +22,11 @@
 #include "lib/init.hpp"
 #include "lib/progress.hpp"
 #include "lib/statistics.hpp"
+#include "lib/version.hpp"
 #include "lib/xyz.hpp"
 
 #ifndef JAMFLOW_VERSION
 #define JAMFLOW_VERSION "unknown"
-#endif
-#ifndef JAMFLOW_GIT_COMMIT
-#define JAMFLOW_GIT_COMMIT "unknown"
 #endif
 
 namespace jamflow {
@@ -959,7 +957,7 @@ void write_run_layout(H5Writer& w, const RunSpec& spec,
                       const std::vector<ReplicaResult>& replicas) {
   w.attr("/", "scene", spec.scene_text);
   w.attr("/", "version", JAMFLOW_VERSION);
-  w.attr("/", "git_commit", JAMFLOW_GIT_COMMIT);
+  w.attr("/", "git_commit", git_commit());
   w.attr("/", "created", iso_now());
   std::string status = "complete";
   std::int64_t resumes = 0;

@@ -23,12 +23,9 @@
 #include "lib/init.hpp"
 #include "lib/model.hpp"
 #include "lib/statistics.hpp"
+#include "lib/version.hpp"
 #include "studies/common.hpp"
 #include "studies/study.hpp"
-
-#ifndef JAMFLOW_GIT_COMMIT
-#define JAMFLOW_GIT_COMMIT "unknown"
-#endif
 
 namespace jamflow::studies {
 namespace {
@@ -391,7 +388,7 @@ int run_ensemble_study(const StudyOptions& options) {
     H5Writer w(h5);
     w.attr("/", "study", "ensemble");
     w.attr("/", "preset", p.name);
-    w.attr("/", "git_commit", JAMFLOW_GIT_COMMIT);
+    w.attr("/", "git_commit", git_commit());
     w.attr("/", "N", p.n);
     w.attr("/", "pressure", p.pressure);
     w.attr("/", "xi_V", p.xi_v);
