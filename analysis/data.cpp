@@ -1,16 +1,27 @@
 // CSV and HDF5 readers for state-point summaries (see data.hpp).
 #include "analysis/data.hpp"
 
+#include <fcntl.h>
 #include <hdf5.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <map>
+#include <new>
 #include <sstream>
 #include <tuple>
+#include <type_traits>
 
 #include "analysis/errors.hpp"
 #include "analysis/json.hpp"
@@ -438,7 +449,10 @@ bool is_hdf5_file(const std::string& path) {
   return in.gcount() == 8 && std::equal(sig, sig + 8, kSignature);
 }
 
-RunSummary read_run_summary(const std::string& path) {
+namespace {
+
+// Reads the summary with libhdf5 in this process.
+RunSummary read_summary_here(const std::string& path) {
   Hdf5ErrorSilencer silence;
   Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (!file.valid())
@@ -484,6 +498,235 @@ RunSummary read_run_summary(const std::string& path) {
   if (s.n < 1)
     range_error(where, "N", static_cast<double>(s.n), "must be >= 1");
   return s;
+}
+
+// --- libhdf5 in a child process ------------------------------------------------
+//
+// Fuzzing found corrupt files on which Debian's libhdf5 1.10.8 itself crashes (global heap and
+// attribute decoding), hangs (metadata cache) or asks for absurd amounts of memory, below
+// anything this reader can check. So each file is read in a forked child: it reads the summary,
+// writes it to a pipe (strings as length and bytes, numbers as their bits: the values are the
+// same bits as an in-process read) and leaves with _exit. The parent waits at most
+// kChildSeconds and the child's address space may grow by at most kChildMemory; a crash, a
+// hang or an allocation beyond that becomes an InputError naming the file.
+
+constexpr int kChildSeconds = 20;
+constexpr unsigned long long kChildMemory = 4ULL << 30;  // 4 GiB on top of what the parent maps
+
+Hdf5Isolation g_isolation = Hdf5Isolation::kChildProcess;
+
+// Every field of a RunSummary, in one order for writing and reading.
+template <class S, class F>
+void for_each_field(S& s, F&& f) {
+  f(s.path);
+  f(s.scene);
+  f(s.version);
+  f(s.git_commit);
+  f(s.created);
+  f(s.ensemble);
+  f(s.n);
+  for (auto* x :
+       {&s.sigma_xy, &s.sigma_xy_err, &s.pressure, &s.pressure_err, &s.phi, &s.phi_err, &s.eta,
+        &s.eta_err, &s.mu, &s.mu_err, &s.j, &s.energy_balance, &s.shear_rate, &s.alpha})
+    f(*x);
+  f(s.has_imposed_pressure);
+  f(s.imposed_pressure);
+}
+
+void put_bytes(std::string& out, const void* p, std::size_t n) {
+  out.append(static_cast<const char*>(p), n);
+}
+
+std::string pack(const RunSummary& s) {
+  std::string out;
+  for_each_field(s, [&](const auto& x) {
+    using T = std::decay_t<decltype(x)>;
+    if constexpr (std::is_same_v<T, std::string>) {
+      const std::uint64_t n = x.size();
+      put_bytes(out, &n, sizeof n);
+      out += x;
+    } else {
+      put_bytes(out, &x, sizeof x);
+    }
+  });
+  return out;
+}
+
+// False if the bytes end early or are left over.
+bool unpack(const std::string& in, std::size_t pos, RunSummary& s) {
+  bool ok = true;
+  const auto take = [&](void* p, std::size_t n) {
+    if (!ok || in.size() - pos < n) {
+      ok = false;
+      return;
+    }
+    std::memcpy(p, in.data() + pos, n);
+    pos += n;
+  };
+  for_each_field(s, [&](auto& x) {
+    using T = std::decay_t<decltype(x)>;
+    if constexpr (std::is_same_v<T, std::string>) {
+      std::uint64_t n = 0;
+      take(&n, sizeof n);
+      if (!ok || n > in.size() - pos) {
+        ok = false;
+        return;
+      }
+      x.assign(in, pos, n);
+      pos += n;
+    } else {
+      take(&x, sizeof x);
+    }
+  });
+  return ok && pos == in.size();
+}
+
+// The child's result: a tag, then the packed summary or a message.
+constexpr char kSummary = 'S', kInputError = 'E', kNoMemory = 'M', kOtherError = 'X';
+
+std::string failure(const std::string& path, const std::string& why) {
+  return path + ": could not be read: " + why;
+}
+
+// The child: never returns.
+[[noreturn]] void child_reads(const std::string& path, int fd) {
+  // Room for kChildMemory more than the parent maps (sanitizer builds map terabytes up front).
+  unsigned long long pages = 0;
+  if (std::FILE* f = std::fopen("/proc/self/statm", "r")) {
+    if (std::fscanf(f, "%llu", &pages) != 1)
+      pages = 0;
+    std::fclose(f);
+  }
+  if (pages > 0) {
+    const rlim_t limit =
+        pages * static_cast<unsigned long long>(::sysconf(_SC_PAGESIZE)) + kChildMemory;
+    rlimit rl{};
+    if (::getrlimit(RLIMIT_AS, &rl) == 0 && (rl.rlim_max == RLIM_INFINITY || limit < rl.rlim_max)) {
+      rl.rlim_cur = limit;
+      ::setrlimit(RLIMIT_AS, &rl);
+    }
+  }
+  // A crash is reported by the parent; a core dump of libhdf5 would only take time and space.
+  const rlimit no_core{0, 0};
+  ::setrlimit(RLIMIT_CORE, &no_core);
+  std::string out;
+  try {
+    try {
+      out = kSummary + pack(read_summary_here(path));
+    } catch (const InputError& e) {
+      out = kInputError + std::string(e.what());
+    } catch (const std::bad_alloc&) {
+      out = kNoMemory;
+    } catch (const std::exception& e) {
+      out = kOtherError + std::string(e.what());
+    }
+  } catch (...) {
+    out = kNoMemory;  // building the message itself failed
+  }
+  std::size_t done = 0;
+  while (done < out.size()) {
+    const ssize_t w = ::write(fd, out.data() + done, out.size() - done);
+    if (w < 0 && errno == EINTR)
+      continue;
+    if (w <= 0)
+      ::_exit(3);
+    done += static_cast<std::size_t>(w);
+  }
+  ::_exit(0);
+}
+
+RunSummary read_in_child(const std::string& path) {
+  int fds[2];
+  if (::pipe2(fds, O_CLOEXEC) != 0)
+    throw InputError(failure(path, std::string("cannot create a pipe: ") + std::strerror(errno)));
+  const pid_t pid = ::fork();
+  if (pid < 0) {
+    const int err = errno;
+    ::close(fds[0]);
+    ::close(fds[1]);
+    throw InputError(failure(path, std::string("cannot start a reader: ") + std::strerror(err)));
+  }
+  if (pid == 0) {
+    ::close(fds[0]);
+    child_reads(path, fds[1]);
+  }
+  ::close(fds[1]);
+  std::string in;
+  bool timed_out = false;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(kChildSeconds);
+  char buf[65536];
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) {
+      timed_out = true;
+      break;
+    }
+    pollfd p{fds[0], POLLIN, 0};
+    const int r = ::poll(&p, 1, static_cast<int>(left.count()));
+    if (r < 0 && errno == EINTR)
+      continue;
+    if (r <= 0) {
+      timed_out = r == 0;
+      break;
+    }
+    const ssize_t n = ::read(fds[0], buf, sizeof buf);
+    if (n < 0 && errno == EINTR)
+      continue;
+    if (n <= 0)
+      break;  // end of file: the child is done (or died)
+    in.append(buf, static_cast<std::size_t>(n));
+  }
+  ::close(fds[0]);
+  if (timed_out)
+    ::kill(pid, SIGKILL);
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (timed_out) {
+    throw InputError(failure(
+        path, "the HDF5 library did not finish within " + std::to_string(kChildSeconds) + " s"));
+  }
+  if (WIFSIGNALED(status)) {
+    const int sig = WTERMSIG(status);
+    const char* name = ::sigabbrev_np(sig);
+    throw InputError(failure(path, "the HDF5 library crashed (signal " + std::to_string(sig) +
+                                       (name ? std::string(", SIG") + name : std::string()) + ")"));
+  }
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || in.empty()) {
+    throw InputError(
+        failure(path, "the HDF5 library crashed (exit status " +
+                          std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) + ")"));
+  }
+  const std::string text = in.substr(1);
+  switch (in[0]) {
+    case kSummary: {
+      RunSummary s;
+      if (!unpack(in, 1, s))
+        break;
+      return s;
+    }
+    case kInputError:
+      throw InputError(text);
+    case kNoMemory:
+      throw InputError(failure(path, "reading it needs more than " +
+                                         std::to_string(kChildMemory >> 30) + " GiB of memory"));
+    case kOtherError:
+      throw InputError(failure(path, text));
+  }
+  throw InputError(failure(path, "the reader's answer is garbled"));
+}
+
+}  // namespace
+
+void set_hdf5_isolation(Hdf5Isolation isolation) {
+  g_isolation = isolation;
+}
+
+RunSummary read_run_summary(const std::string& path) {
+  if (g_isolation == Hdf5Isolation::kInProcess)
+    return read_summary_here(path);
+  return read_in_child(path);
 }
 
 std::vector<GranularPoint> read_granular(const std::vector<std::string>& paths) {

@@ -50,8 +50,17 @@ struct RunSummary {
 };
 
 // Reads one run file with the HDF5 C API. Throws InputError naming the file
-// and the missing or mistyped attribute.
+// and the missing or mistyped attribute. libhdf5 runs in a forked child
+// process (at most 20 s, at most 4 GiB more address space): a corrupt file on
+// which libhdf5 itself crashes, hangs or exhausts memory is an InputError
+// too ("FILE: could not be read: the HDF5 library crashed (signal 11, ...)").
 RunSummary read_run_summary(const std::string& path);
+
+// Where read_run_summary runs libhdf5. The fuzz target reads in its own
+// process, so that libFuzzer sees the reader's coverage and sanitizer reports;
+// everything else keeps the default.
+enum class Hdf5Isolation { kChildProcess, kInProcess };
+void set_hdf5_isolation(Hdf5Isolation isolation);
 
 // True if the file starts with the HDF5 signature.
 bool is_hdf5_file(const std::string& path);

@@ -17,6 +17,8 @@
 #include <cstdlib>
 #include <exception>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <random>
 #include <type_traits>
 
@@ -724,6 +726,23 @@ struct Cvode::Impl {
   std::exception_ptr pending;
   std::string last_message, last_recoverable;
 
+  // A stretch that the interrupt flag stopped between two internal steps (see advance()).
+  // CVODE's memory is still at that step; the Model and the system are kept as the step left
+  // them, so that an advance() to the same t_end goes on as if the run had never stopped.
+  struct Paused {
+    double t_stop = 0.0;    // the stretch's end
+    double t_step = 0.0;    // the time of the step
+    long steps = 0;         // steps of the advance() so far
+    long budget = 0;        // steps allowed in this stretch
+    long taken = 0;         // steps taken in this stretch
+    Model::Snapshot model;  // the Model before it was moved to the step's time
+    std::unique_ptr<CvodeSystem> sys;
+  };
+  std::optional<Paused> paused;
+  // The t_end of the last advance() if the flag stopped it before t_end (else NaN): a call to
+  // the same t_end from the state it left continues that advance().
+  double stopped_end = std::numeric_limits<double>::quiet_NaN();
+
   // Runs a callback body: IntegrationError (a trial point outside the physical domain) is
   // recoverable, so CVODE retries with a smaller step; anything else (CellCollapse included)
   // is kept and rethrown after CVode returns.
@@ -954,6 +973,21 @@ void Cvode::reset() {
   impl_->need_init = true;
 }
 
+// Each stretch (up to t_end, or to the next Lees–Edwards remap) is taken one internal step at a
+// time: CVode(..., CV_ONE_STEP) with the stretch's end as CVodeSetStopTime. That is the step
+// sequence of one CV_NORMAL call to the same stop time (each step is limited so as not to pass
+// it, and the last one ends on it and returns y there), so uninterrupted results keep their
+// bits (compared on runs through remaps, with the piston, with PCG and with Adams). CVODE's
+// own step limit counts per call, so max_steps is counted here.
+// Between two steps the interrupt flag is polled: a stop then costs at most one internal step
+// (milliseconds at N = 1000), not the rest of the stretch, which can take minutes with tight
+// tolerances or large N. On a stop the Model is moved to the last step's time and y (CVODE's
+// own solution there, with forces evaluated), as the fixed-step integrators leave it. The
+// solver keeps its history: an advance() to the same t_end from that state first puts back the
+// Model and the system as the last step left them (the move evaluated forces once more, which
+// can renew the neighbour list and fold s_ref), then takes the next step, so the run goes on
+// bit for bit as if never stopped (a stop between stretches continues likewise). A checkpoint
+// of the stopped state resumes with a fresh history (has_solver_history()).
 void Cvode::advance(Model& model, const Ensemble& ensemble, double t_end) {
   Impl& im = *impl_;
   const State& st = model.state();
@@ -967,68 +1001,123 @@ void Cvode::advance(Model& model, const Ensemble& ensemble, double t_end) {
   if (!im.state_is_ours(model))
     im.need_init = true;
   im.left_valid = false;
+  // A continued advance() does what the stopped one had still to do, and nothing more: in
+  // particular no second atol drift check, whose evaluation (after a remap, before the
+  // re-initialisation) would otherwise change when the neighbour list is rebuilt.
+  const bool continuing = !im.need_init && im.stopped_end == t_end;
+  im.stopped_end = std::numeric_limits<double>::quiet_NaN();
+  if (!continuing)
+    im.paused.reset();
+
+  // On failure: the Model is left at CVODE's last successful step (y holds it).
+  const auto fail = [&](int flag, double t_ret) {
+    im.need_init = true;
+    im.paused.reset();
+    try {
+      im.sys->apply(t_ret, data(im.y.get()));
+    } catch (...) {
+    }
+    if (im.pending) {
+      std::exception_ptr e = im.pending;
+      im.pending = nullptr;
+      std::rethrow_exception(e);
+    }
+    std::string text = "CVODE failed at t = " + fmt(t_ret) + " with " + im.flag_text(flag, false);
+    if (im.sys->has_piston())
+      text += " (cell volume " + fmt(st.box.volume()) + ")";
+    if (flag == CV_TOO_MUCH_WORK)
+      text += ": more than [integrator] max_steps = " + std::to_string(im.opt.max_steps) +
+              " steps in one advance";
+    if (!im.last_message.empty())
+      text += " (" + im.last_message + ")";
+    if (!im.last_recoverable.empty())
+      text += "; last recoverable error: " + im.last_recoverable;
+    throw IntegrationError(text);
+  };
 
   long steps = 0;
-  bool first = true;
+  bool first = !continuing;
   while (st.time < t_end && !interrupted()) {
-    if (model.prepare_step())
-      im.need_init = true;
-    if (first) {
-      // CVODE 6.4 accepts new tolerances only before the first step after (re)initialisation
-      // (CVodeSVtolerances clears the error-weight data that CVode's initial setup restores),
-      // so a default atol that drifted by more than 10x since then costs a re-initialisation.
-      const double want = im.wanted_atol(model, ensemble);
-      if (!(want <= 10.0 * im.atol_len && im.atol_len <= 10.0 * want))
-        im.need_init = true;
-      first = false;
-    }
-    if (im.need_init)
-      im.initialise(model, ensemble);
-
     double t_stop = t_end;
-    if (ensemble.shear_rate() != 0.0)
-      t_stop = std::min(t_stop, im.remap_time(st.time));
-    // CVODE refuses an interval at round-off level (CV_TOO_CLOSE); the state moves by |f| dt.
-    const bool tiny = t_stop - st.time <= 1e-13 * std::max(1.0, std::abs(st.time));
-    if (!tiny) {
-      im.check(CVodeSetStopTime(im.mem.get(), t_stop), "CVodeSetStopTime");
-      im.check(CVodeSetMaxNumSteps(im.mem.get(), std::max(1L, im.opt.max_steps - steps)),
-               "CVodeSetMaxNumSteps");
-      const long before = im.live.v[0];
-      sunrealtype t_ret = st.time;
-      im.last_message.clear();
-      const int flag = CVode(im.mem.get(), t_stop, im.y.get(), &t_ret, CV_NORMAL);
-      im.live = im.read_counters();
-      steps += im.live.v[0] - before;
-      if (im.pending || flag < 0) {
+    long budget = 0, taken = 0;
+    double t_step = st.time;  // the last step's time (y holds the solution there)
+    if (im.paused && !im.need_init) {
+      Impl::Paused p = std::move(*im.paused);
+      im.paused.reset();
+      model.restore(p.model);
+      im.sys = std::move(p.sys);
+      t_stop = p.t_stop;
+      t_step = p.t_step;
+      steps = p.steps;
+      budget = p.budget;
+      taken = p.taken;
+    } else {
+      im.paused.reset();
+      if (model.prepare_step())
         im.need_init = true;
-        // Leave the Model at CVODE's last successful step (y holds it on failure).
-        try {
-          im.sys->apply(t_ret, data(im.y.get()));
-        } catch (...) {
-        }
-        if (im.pending) {
-          std::exception_ptr e = im.pending;
-          im.pending = nullptr;
-          std::rethrow_exception(e);
-        }
-        std::string text =
-            "CVODE failed at t = " + fmt(t_ret) + " with " + im.flag_text(flag, false);
-        if (im.sys->has_piston())
-          text += " (cell volume " + fmt(st.box.volume()) + ")";
-        if (flag == CV_TOO_MUCH_WORK)
-          text += ": more than [integrator] max_steps = " + std::to_string(im.opt.max_steps) +
-                  " steps in one advance";
-        if (!im.last_message.empty())
-          text += " (" + im.last_message + ")";
-        if (!im.last_recoverable.empty())
-          text += "; last recoverable error: " + im.last_recoverable;
-        throw IntegrationError(text);
+      if (first) {
+        // CVODE 6.4 accepts new tolerances only before the first step after (re)initialisation
+        // (CVodeSVtolerances clears the error-weight data that CVode's initial setup restores),
+        // so a default atol that drifted by more than 10x since then costs a re-initialisation.
+        const double want = im.wanted_atol(model, ensemble);
+        if (!(want <= 10.0 * im.atol_len && im.atol_len <= 10.0 * want))
+          im.need_init = true;
+        first = false;
+      }
+      if (im.need_init)
+        im.initialise(model, ensemble);
+      if (ensemble.shear_rate() != 0.0)
+        t_stop = std::min(t_stop, im.remap_time(st.time));
+      // CVODE refuses an interval at round-off level (CV_TOO_CLOSE); the state moves by |f| dt.
+      if (t_stop - st.time <= 1e-13 * std::max(1.0, std::abs(st.time))) {
+        im.sys->apply(t_stop, data(im.y.get()));
+        continue;
+      }
+      im.check(CVodeSetStopTime(im.mem.get(), t_stop), "CVodeSetStopTime");
+      budget = std::max(1L, im.opt.max_steps - steps);
+    }
+    // One internal step per call; the stretch ends with CV_TSTOP_RETURN at exactly t_stop.
+    for (;;) {
+      if (taken >= budget) {
+        im.live = im.read_counters();
+        im.last_message.clear();
+        fail(CV_TOO_MUCH_WORK, t_step);
+      }
+      sunrealtype t_ret = t_step;
+      im.last_message.clear();
+      const int flag = CVode(im.mem.get(), t_stop, im.y.get(), &t_ret, CV_ONE_STEP);
+      if (im.pending || flag < 0) {
+        im.live = im.read_counters();
+        fail(flag, t_ret);
+      }
+      ++taken;
+      ++steps;
+      t_step = t_ret;
+      if (flag == CV_TSTOP_RETURN)
+        break;
+      if (interrupted()) {
+        im.live = im.read_counters();
+        Impl::Paused p;
+        p.t_stop = t_stop;
+        p.t_step = t_step;
+        p.steps = steps;
+        p.budget = budget;
+        p.taken = taken;
+        p.model = model.snapshot();
+        p.sys = std::make_unique<CvodeSystem>(*im.sys);
+        im.sys->apply(t_ret, data(im.y.get()));
+        im.paused = std::move(p);
+        im.stopped_end = t_end;
+        im.remember(model);
+        return;
       }
     }
+    im.live = im.read_counters();
     // The Model ends exactly at t_stop with forces evaluated at the final y.
     im.sys->apply(t_stop, data(im.y.get()));
   }
+  if (st.time < t_end)
+    im.stopped_end = t_end;
   im.remember(model);
 }
 

@@ -19,13 +19,20 @@
 // are never computed from a stale list. A rebuild wraps State::pos by integers; the wrap is
 // folded into s_ref, so y stays continuous and the next write agrees with the list.
 //
-// Discrete changes. advance() calls Model::prepare_step() before every CVode call and
-// re-initialises CVODE (dropping its history, y = 0 at the current state) whenever it
-// returns true (Lees–Edwards remap or particle reordering), when reset() was called, or when
-// the Model's state is not the one this integrator left behind (another integrator, a
-// restart, an edited state). The tilt is linear in t, so each CVode call stops exactly where
+// Discrete changes. advance() integrates in stretches and calls Model::prepare_step() before
+// each; it re-initialises CVODE (dropping its history, y = 0 at the current state) whenever
+// that returns true (Lees–Edwards remap or particle reordering), when reset() was called, or
+// when the Model's state is not the one this integrator left behind (another integrator, a
+// restart, an edited state). The tilt is linear in t, so each stretch stops exactly where
 // |tilt| passes 1/2 (CVodeSetStopTime); the remap and re-initialisation follow. Every call
 // ends exactly at t_end, with the Model's forces evaluated at the final y.
+//
+// Interruption. A stretch is taken one internal step per CVode call (CV_ONE_STEP up to the
+// stop time: the same steps and bits as one CV_NORMAL call), and the interrupt flag is polled
+// after each, so a stop waits for one internal step, not for the rest of a stretch. The Model
+// is then left at that step's time and solution, with forces evaluated. advance() to the same
+// t_end continues the stretch with the solver's history, bit for bit as if never stopped; a
+// checkpoint of the stopped state resumes with a fresh history (has_solver_history()).
 //
 // Jacobian. Matrix-free, analytic: J v over the contacts (pair stiffness U'' along the
 // contact normal, -f/r across it), with the exact couplings to the piston: the affine

@@ -26,8 +26,8 @@ class Integrator {
 
   // Advance to exactly t_end (model.state().time == t_end on return), or, once the interrupt
   // flag is set, stop early at the end of a step (model.state().time < t_end on return).
-  // Calling advance() again with the same t_end then continues as if never stopped: for the
-  // fixed-step integrators, bit for bit.
+  // Calling advance() again with the same t_end then continues as if never stopped, bit for
+  // bit (CVODE keeps its solver history across the stop; see cvode.hpp).
   virtual void advance(Model& model, const Ensemble& ensemble, double t_end) = 0;
 
   // A flag, set from another thread or a signal handler, that advance() polls between steps.

@@ -1,11 +1,16 @@
 // Readers: CSV tables (with file/line/column messages) and HDF5 run files
-// written here with the HDF5 C API, as `jamflow run` writes them.
+// written here with the HDF5 C API, as `jamflow run` writes them; corrupt run
+// files, on which libhdf5 itself may crash or hang, give one-line InputErrors.
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <map>
+#include <random>
 #include <string>
 
 #include "analysis/data.hpp"
@@ -173,6 +178,7 @@ void put_string(hid_t obj, const char* name, const std::string& v, bool variable
 }
 
 struct RunSpec {
+  std::string scene = "[system]\nN = 1000\n";
   std::string ensemble = "constant_pressure";
   bool variable_strings = true;
   bool with_imposed_pressure = true;
@@ -183,7 +189,7 @@ struct RunSpec {
 
 void write_run(const std::string& path, const RunSpec& s) {
   hid_t file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-  put_string(file, "scene", "[system]\nN = 1000\n", s.variable_strings);
+  put_string(file, "scene", s.scene, s.variable_strings);
   put_string(file, "version", "0.1.0", s.variable_strings);
   put_string(file, "git_commit", "abc", s.variable_strings);
   put_string(file, "created", "2025-01-01T00:00:00Z", s.variable_strings);
@@ -333,6 +339,147 @@ TEST(RunFileReader, EmptyHugeFixedStringIsRejected) {
   H5Fclose(file);
   expect_input_error([&] { read_run_summary(path); },
                      {path, "attribute 'scene' holds 0 strings; allowed: one string"});
+}
+
+std::string bytes_of(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+void write_bytes(const std::string& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+}
+
+// The same bits in every field.
+void expect_same_summary(const RunSummary& a, const RunSummary& b) {
+  EXPECT_EQ(a.path, b.path);
+  EXPECT_EQ(a.scene, b.scene);
+  EXPECT_EQ(a.version, b.version);
+  EXPECT_EQ(a.git_commit, b.git_commit);
+  EXPECT_EQ(a.created, b.created);
+  EXPECT_EQ(a.ensemble, b.ensemble);
+  EXPECT_EQ(a.n, b.n);
+  EXPECT_EQ(a.has_imposed_pressure, b.has_imposed_pressure);
+  const std::vector<std::pair<const char*, std::pair<double, double>>> numbers{
+      {"sigma_xy", {a.sigma_xy, b.sigma_xy}},
+      {"sigma_xy_err", {a.sigma_xy_err, b.sigma_xy_err}},
+      {"pressure", {a.pressure, b.pressure}},
+      {"pressure_err", {a.pressure_err, b.pressure_err}},
+      {"phi", {a.phi, b.phi}},
+      {"phi_err", {a.phi_err, b.phi_err}},
+      {"eta", {a.eta, b.eta}},
+      {"eta_err", {a.eta_err, b.eta_err}},
+      {"mu", {a.mu, b.mu}},
+      {"mu_err", {a.mu_err, b.mu_err}},
+      {"J", {a.j, b.j}},
+      {"energy_balance", {a.energy_balance, b.energy_balance}},
+      {"shear_rate", {a.shear_rate, b.shear_rate}},
+      {"alpha", {a.alpha, b.alpha}},
+      {"imposed_pressure", {a.imposed_pressure, b.imposed_pressure}}};
+  for (const auto& [name, v] : numbers)
+    EXPECT_EQ(0, std::memcmp(&v.first, &v.second, sizeof(double))) << name;
+}
+
+// Each file is read by libhdf5 in a child process that sends the summary back: the values are
+// those of a read in this process, bit for bit, with a scene as large as a pipe holds at once
+// (or larger) and a NaN among the numbers.
+TEST(RunFileReader, ChildProcessReadGivesTheSameValuesAsAnInProcessRead) {
+  ScratchDir dir;
+  for (bool variable : {true, false}) {
+    RunSpec spec;
+    spec.variable_strings = variable;
+    spec.mu = std::nan("");
+    // A fixed-length attribute holds at most 64 KiB (in the object header).
+    spec.scene = "[system]\nN = 1000\n" + std::string(variable ? 300000 : 60000, '#') + "\n";
+    const std::string path = dir.file(variable ? "v.h5" : "f.h5");
+    write_run(path, spec);
+    const RunSummary child = read_run_summary(path);
+    set_hdf5_isolation(Hdf5Isolation::kInProcess);
+    const RunSummary here = read_run_summary(path);
+    set_hdf5_isolation(Hdf5Isolation::kChildProcess);
+    EXPECT_EQ(child.scene.size(), spec.scene.size());
+    EXPECT_TRUE(std::isnan(child.mu));
+    expect_same_summary(child, here);
+  }
+  // Messages about missing pieces come back unchanged.
+  RunSpec no_p;
+  no_p.with_imposed_pressure = false;
+  write_run(dir.file("np.h5"), no_p);
+  expect_input_error([&] { read_run_summary(dir.file("np.h5")); },
+                     {dir.file("np.h5") + ": /summary: missing attribute 'imposed_pressure'"});
+}
+
+// Expects an InputError of one line that starts with the file's path; returns its message.
+template <class F>
+std::string expect_one_line_error(F&& f, const std::string& path) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind(path, 0), 0u) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+    return what;
+  }
+  return "";
+}
+
+// Truncated and byte-corrupted copies of a run file: each is read or refused with a one-line
+// InputError naming it, and this process goes on whatever libhdf5 does with them.
+TEST(RunFileReader, TruncatedAndCorruptedCopiesGiveOneLineInputErrors) {
+  ScratchDir dir;
+  const std::string good = dir.file("good.h5");
+  write_run(good, RunSpec{});  // variable-length strings: a global heap, as in jamflow's files
+  const std::string bytes = bytes_of(good);
+  ASSERT_GT(bytes.size(), 2000u);
+  const std::string path = dir.file("bad.h5");
+  int refused = 0, read = 0, crashed = 0;
+  const auto check = [&](const std::string& copy) {
+    write_bytes(path, copy);
+    const std::string what = expect_one_line_error([&] { read_run_summary(path); }, path);
+    crashed += what.find("the HDF5 library crashed") != std::string::npos;
+    (what.empty() ? read : refused) += 1;
+    expect_one_line_error([&] { read_shear({path}); }, path);
+  };
+  for (std::size_t size = 0; size < bytes.size(); size += bytes.size() / 16)
+    check(bytes.substr(0, size));
+  // Four bytes changed at a time, in a fixed sequence. (Further on, its 134th copy keeps libhdf5
+  // busy for 14 s.)
+  std::mt19937 rng(20);
+  for (int k = 0; k < 100; ++k) {
+    std::string copy = bytes;
+    for (int j = 0; j < 4; ++j)
+      copy[8 + rng() % (copy.size() - 8)] = static_cast<char>(rng() % 256);
+    check(copy);
+  }
+  RecordProperty("refused", refused);
+  RecordProperty("read", read);
+  RecordProperty("crashed_libhdf5", crashed);
+  EXPECT_GE(refused, 16);  // every truncated copy
+}
+
+// A corrupt run file on which libhdf5 1.10.8 itself crashes: a SIGSEGV in H5HG_read (the global
+// heap of a variable-length string attribute). Found by mutating fuzz/corpus/hdf5/
+// constant_volume.h5; data/README.md. The crash stays in the reading child and becomes an
+// InputError naming the file.
+TEST(RunFileReader, CrashInsideLibhdf5IsAnInputError) {
+  const std::string path = std::string(JAMFLOW_ANALYSIS_TEST_DATA) + "/h5hg_read_sigsegv.h5";
+  ASSERT_TRUE(std::filesystem::exists(path)) << path;
+  for (int reader = 0; reader < 3; ++reader) {
+    const std::string what = expect_one_line_error(
+        [&] {
+          if (reader == 0)
+            read_run_summary(path);
+          else if (reader == 1)
+            read_shear({path});
+          else
+            read_granular({path});
+        },
+        path);
+    // "could not be read: the HDF5 library crashed (signal 11, SIGSEGV)"; a sanitizer build
+    // reports the bad read and exits instead ("... crashed (exit status 1)").
+    EXPECT_NE(what.find(": could not be read: the HDF5 library crashed ("), std::string::npos)
+        << what;
+  }
 }
 
 }  // namespace

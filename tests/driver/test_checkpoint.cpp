@@ -1,6 +1,7 @@
 // Checkpoints, --resume and --extend: an interrupted and continued run gives the same file, bit
-// for bit, as an uninterrupted one (Euler, RESPA); a torn checkpoint write leaves the previous
-// checkpoint readable; the output path is checked before anything is computed.
+// for bit, as an uninterrupted one (Euler, RESPA; CVODE when it goes on in the same process); a
+// torn checkpoint write leaves the previous checkpoint readable; the output path is checked
+// before anything is computed.
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -218,6 +219,23 @@ TEST(Resume, CvodeContinuesWithAFreshSolverHistoryAndSaysSo) {
         << h.attr_string("/", "solver_history");
   }
   EXPECT_EQ(h.read_doubles("/timeseries/time").size(), 81u);
+}
+
+// Checkpoints due by the clock (every millisecond of wall time here) stop CVODE between its
+// internal steps and let it go on with the history it had: the finished file is the same, bit
+// for bit, as a run that was never stopped.
+TEST(Resume, CvodeCheckpointsOnTheClockLeaveTheRunUnchanged) {
+  TempDir dir;
+  const std::string ref = dir.file("ref.h5"), cut = dir.file("cut.h5");
+  const char* const cvode = "kind = \"cvode\"\nrtol = 1e-5";
+  std::string never = scene(ref, kVolume, cvode, 20.0, 40.0);
+  const std::string every_ms = "checkpoint_every = 0.001";
+  never.replace(never.find(every_ms), every_ms.size(), "checkpoint_every = 1e9");
+  ASSERT_EQ(run_quietly(spec_of(never), {}), 0);
+  ASSERT_EQ(run_quietly(spec_of(scene(cut, kVolume, cvode, 20.0, 40.0)), {}), 0);
+  expect_same_run(ref, cut);
+  H5Reader h(cut);
+  EXPECT_EQ(h.attr_string("/", "solver_history"), "kept");
 }
 
 // A write that dies half-way (here: abandoned before its commit) never touches the previous

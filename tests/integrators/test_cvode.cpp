@@ -1,12 +1,16 @@
 // CVODE: analytic relaxations, tolerance proportionality, the analytic Jacobian against finite
 // differences and the Hessian product, list validity against the all-pairs reference, a run
-// through Lees–Edwards remaps against a tiny-step Euler reference, and the piston.
+// through Lees–Edwards remaps against a tiny-step Euler reference, the piston, and stops on the
+// interrupt flag between internal steps.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <random>
+#include <thread>
 
 #include "ensembles/constant_pressure.hpp"
 #include "ensembles/constant_volume.hpp"
@@ -359,6 +363,99 @@ TEST(Cvode, CollapsingPistonFailsFastNamingTheVolume) {
   EXPECT_LT(stat(cv, "steps"), 100.0);
   EXPECT_LT(m.state().time, 0.01);
   EXPECT_GT(m.state().box.volume(), 0.0);
+}
+
+// The interrupt flag is polled between CVODE's internal steps, not only between stretches (up
+// to a sample time or a remap): a stretch of several seconds stops within one internal step of
+// the flag, and the run then continues to the end with the solver history it had.
+TEST(Cvode, InterruptStopsWithinOneInternalStep) {
+  // N = 1000 at phi = 0.64 and gdot = 1e-2 with tight tolerances: the first remap is due at
+  // t = 50, so t_end = 40 is one stretch (about 6 s on the 2-core development VM in Release).
+  Model m(random_state(1000, 0.64, 3), ModelOptions{2.0, 0.3, 1, 20});
+  ConstantVolume ens(1e-2);
+  Cvode cv(tolerances(1e-11, 1e-11));
+  std::atomic<bool> flag{false};
+  cv.set_interrupt(&flag);
+  const double t_end = 40.0;
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point raised{};
+  std::thread raiser([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    raised = Clock::now();
+    flag.store(true);
+  });
+  cv.advance(m, ens, t_end);
+  const Clock::time_point returned = Clock::now();
+  raiser.join();
+  ASSERT_LT(m.state().time, t_end) << "the stretch ended before the flag: make it longer";
+  const double latency = std::chrono::duration<double>(returned - raised).count();
+  RecordProperty("stop_latency_s", std::to_string(latency));
+  EXPECT_LT(latency, 1.5);
+  // Stopped at an internal step, with the forces of that state.
+  EXPECT_GT(m.state().time, 0.0);
+  EXPECT_TRUE(std::isfinite(m.evaluate().pressure));
+  EXPECT_GT(stat(cv, "steps"), 0.0);
+  flag.store(false);
+  cv.advance(m, ens, t_end);
+  EXPECT_EQ(m.state().time, t_end);
+  EXPECT_EQ(stat(cv, "reinits"), 1.0);
+}
+
+// Stopped by the flag every millisecond of wall time (inside stretches, between them, at their
+// start) and continued each time, as the run driver does for checkpoints: the same bits as an
+// uninterrupted run through remaps, list rebuilds and reorders, with the same work counted.
+TEST(Cvode, InterruptedAndContinuedRunIsBitForBitTheSame) {
+  const State start = random_state(200, 0.62, 4);
+  const ModelOptions mo{2.0, 0.3, 1, 20};
+  ConstantVolume ens(0.05);  // a remap every 20 time units in this cell (about 7 wide)
+  const double t_end = 80.0;
+  Model ref(start, mo);
+  Cvode cv_ref(CvodeOptions{});
+  for (int k = 1; k <= 40; ++k)
+    cv_ref.advance(ref, ens, t_end * k / 40);
+
+  Model cut(start, mo);
+  Cvode cv_cut(CvodeOptions{});
+  std::atomic<bool> flag{false};
+  cv_cut.set_interrupt(&flag);
+  std::atomic<bool> done{false};
+  std::thread raiser([&] {
+    while (!done.load()) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      flag.store(true);
+    }
+  });
+  int stops = 0;
+  for (int k = 1; k <= 40; ++k) {
+    const double t = t_end * k / 40;
+    cv_cut.advance(cut, ens, t);
+    while (cut.state().time < t) {
+      ++stops;
+      flag.store(false);
+      cv_cut.advance(cut, ens, t);
+    }
+  }
+  done.store(true);
+  raiser.join();
+  RecordProperty("stops", stops);
+  EXPECT_GE(stops, 3) << "hardly interrupted: the machine ran it in a few milliseconds";
+
+  const State& a = ref.state();
+  const State& b = cut.state();
+  EXPECT_EQ(a.time, b.time);
+  EXPECT_EQ(a.box.strain, b.box.strain);
+  EXPECT_EQ(a.box.flips, b.box.flips);
+  ASSERT_EQ(a.pos.size(), b.pos.size());
+  EXPECT_EQ(0, std::memcmp(a.pos.data(), b.pos.data(), a.pos.size() * sizeof(double)));
+  EXPECT_EQ(a.id, b.id);
+  EXPECT_EQ(ref.evaluate().sigma_xy, cut.evaluate().sigma_xy);
+  EXPECT_EQ(ref.force_evaluations(), cut.force_evaluations());
+  EXPECT_EQ(ref.list_builds(), cut.list_builds());
+  EXPECT_GT(ref.list_builds(), 5u);
+  EXPECT_GT(a.box.flips, 0);
+  for (const char* key : {"steps", "rhs_evaluations", "linear_iterations", "reinits"})
+    EXPECT_EQ(stat(cv_ref, key), stat(cv_cut, key)) << key;
+  EXPECT_GT(stat(cv_ref, "reinits"), 2.0);  // remaps and reorders re-initialise
 }
 
 TEST(Cvode, VectorKernelsAgreeWithNvectorSerial) {
