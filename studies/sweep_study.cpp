@@ -8,6 +8,7 @@
 #include "sweep/collect.hpp"
 #include "sweep/engine.hpp"
 #include "sweep/execute.hpp"
+#include "sweep/mpi.hpp"
 
 namespace jamflow::studies {
 
@@ -50,6 +51,8 @@ std::optional<int> run_sweep_study(const std::string& study, const std::string& 
   const int status = sweep::run_plan(out.plan, eo);
   if (status >= 128)
     return status;  // stopped: the checkpoints continue on the next run
+  if (sweep::mpi_launched() && sweep::launched_rank() != 0)
+    return status;  // under mpirun, rank 0 alone collects and analyses
   out.table = (fs::path(options.out_dir) / "table.csv").string();
   const sweep::Collected c = sweep::collect(out.plan, out.table);
   out.finished = c.rows;

@@ -30,6 +30,14 @@ bool mpi_launched() {
   return false;
 }
 
+int launched_rank() {
+  for (const char* var : {"OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"}) {
+    if (const char* v = std::getenv(var))
+      return std::atoi(v);
+  }
+  return 0;
+}
+
 #ifdef JAMFLOW_HAVE_MPI
 
 namespace {

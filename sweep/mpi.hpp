@@ -15,6 +15,8 @@ bool mpi_available();
 // True when this process was started by an MPI launcher with more than one rank (Open MPI's
 // OMPI_COMM_WORLD_SIZE, or PMI_SIZE / PMIX_SIZE), so `jamflow sweep` should farm over ranks.
 bool mpi_launched();
+// This process's rank as the launcher's environment gives it (0 when not launched by one).
+int launched_rank();
 
 // Runs the sweep over MPI_COMM_WORLD with `jobs` tasks at a time per rank. Returns this rank's
 // exit status (rank 0: 0 all done, 1 some failed, 128 + signal when stopped).
