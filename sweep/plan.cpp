@@ -1,6 +1,8 @@
 #include "sweep/plan.hpp"
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -227,7 +229,12 @@ Plan parse_plan(const std::string& text, const std::string& source, const std::s
     fs::path p(scene_key->as_string()->get());
     if (p.is_relative())
       p = base / p;
-    scene = Scene::load(p.lexically_normal().string());
+    try {
+      scene = Scene::load(p.lexically_normal().string());
+    } catch (const InputFileError& e) {
+      throw ConfigError(source + ": [sweep] scene = \"" + scene_key->as_string()->get() +
+                        "\" (relative to the sweep file): " + e.what());
+    }
     anchor_init(scene, p.parent_path());
   } else if (const toml::table* inline_scene = file.table("scene")) {
     std::ostringstream os;
@@ -393,12 +400,13 @@ Plan load_plan(const std::string& path, const std::string& out_dir) {
   if (fs::is_directory(path, ec))
     throw InputFileError("sweep file '" + path + "' is a directory; allowed: a TOML file");
   std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw InputFileError("cannot open sweep file '" + path + "': " + std::strerror(errno) +
+                         "; allowed: a readable TOML file");
   std::ostringstream buf;
   buf << in.rdbuf();
-  if (!in.good() && !in.eof())
+  if (in.bad())
     throw InputFileError("cannot read sweep file '" + path + "'; allowed: a readable TOML file");
-  if (!std::ifstream(path))
-    throw InputFileError("cannot open sweep file '" + path + "'; allowed: a readable TOML file");
   return parse_plan(buf.str(), path, fs::path(path).parent_path().string(), out_dir);
 }
 
