@@ -154,6 +154,7 @@ Coordinator::Coordinator(const Plan& plan, std::vector<std::size_t> share, int s
   state_.assign(tasks_.size(), TaskState::kWaiting);
   why_.assign(tasks_.size(), "");
   started_at_.assign(tasks_.size(), 0.0);
+  resumed_.assign(tasks_.size(), false);
   std::vector<bool> mine(tasks_.size(), false);
   for (auto i : share)
     mine[i] = true;
@@ -179,6 +180,8 @@ std::optional<std::size_t> Coordinator::take() {
 }
 
 void Coordinator::started(std::size_t task) {
+  // A continued task does only part of its work here: it says nothing of the rate.
+  resumed_[task] = state_[task] == TaskState::kCheckpointed;
   state_[task] = TaskState::kRunning;
   started_at_[task] = now_seconds();
   ++running_;
@@ -194,8 +197,10 @@ void Coordinator::finished(std::size_t task, TaskState state, double wall, const
   why_[task] = why;
   if (state == TaskState::kDone) {
     ++done_;
-    done_cost_ += tasks_[task].cost;
-    done_wall_ += wall;
+    if (!resumed_[task]) {
+      done_cost_ += tasks_[task].cost;
+      done_wall_ += wall;
+    }
   } else if (state == TaskState::kFailed) {
     ++failed_;
   }

@@ -56,6 +56,7 @@ class Coordinator {
   std::vector<std::size_t> queue_;  // tasks to run, in order
   std::size_t next_ = 0;
   std::vector<double> started_at_;
+  std::vector<bool> resumed_;  // started from a checkpoint: left out of the rate
   int slots_;
   bool quiet_, tty_;
   std::size_t total_ = 0;
