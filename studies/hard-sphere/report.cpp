@@ -5,7 +5,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <iterator>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include "analysis/analyze_cli.hpp"
@@ -224,6 +227,75 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
           "when it has several replicas, because its error bars then include the scatter of "
           "independent replicas (analysis/README.md).\n\n";
     md << markdown_table({"point", "verdict", "used"}, flagged);
+  }
+
+  // The data behind the envelope: phi and mu at each J and P, and how far the two lowest
+  // pressures at each J are apart (the hard-sphere limit needs them to agree).
+  md << "\n## phi and mu at each J and P\n\n";
+  {
+    std::map<std::int64_t, std::map<double, std::map<double, std::size_t, std::greater<>>,
+                                    std::greater<>>>
+        grid_rows;  // N -> J -> P -> row (J and P from the table, to 3 digits)
+    auto key = [](double x) { return std::stod(num(x, 3)); };
+    for (std::size_t r = 0; r < table.rows.size(); ++r) {
+      if (table.number(r, "steady") == 0.0 || table.number(r, "stable") == 0.0)
+        continue;
+      grid_rows[std::int64_t(table.number(r, "N"))][key(table.number(r, "J"))]
+               [key(table.number(r, "P"))] = r;
+    }
+    for (const auto& [n, by_j] : grid_rows) {
+      std::set<double, std::greater<>> pressures;
+      for (const auto& [j, by_p] : by_j) {
+        for (const auto& [p, r] : by_p)
+          pressures.insert(p);
+      }
+      std::vector<std::string> header = {"J"};
+      for (double p : pressures)
+        header.push_back("P = " + num(p, 3));
+      header.push_back("two lowest P: Delta phi, Delta mu (sigma)");
+      std::vector<std::vector<std::string>> rows;
+      int compared = 0, apart = 0;
+      for (const auto& [j, by_p] : by_j) {
+        std::vector<std::string> row = {num(j, 3)};
+        for (double p : pressures) {
+          const auto it = by_p.find(p);
+          row.push_back(
+              it == by_p.end()
+                  ? "-"
+                  : pm(table.number(it->second, "phi"), table.number(it->second, "phi_err"), 4) +
+                        "; " +
+                        pm(table.number(it->second, "mu"), table.number(it->second, "mu_err"), 3));
+        }
+        if (by_p.size() >= 2) {
+          auto lo = by_p.rbegin();
+          auto lo2 = std::next(lo);
+          const std::size_t a = lo->second, b = lo2->second;
+          const double dphi = table.number(b, "phi") - table.number(a, "phi");
+          const double sphi = std::hypot(table.number(a, "phi_err"), table.number(b, "phi_err"));
+          const double dmu = table.number(b, "mu") - table.number(a, "mu");
+          const double smu = std::hypot(table.number(a, "mu_err"), table.number(b, "mu_err"));
+          char buf[128];
+          std::snprintf(buf, sizeof buf, "%+.4f (%.1f), %+.3f (%.1f)", dphi, dphi / sphi, dmu,
+                        dmu / smu);
+          row.push_back(buf);
+          ++compared;
+          if (std::fabs(dphi / sphi) > 2.0 || std::fabs(dmu / smu) > 2.0)
+            ++apart;
+        } else {
+          row.push_back("-");
+        }
+        rows.push_back(row);
+      }
+      md << "N = " << n << " (phi; mu, each +- its error; points that are not steady or not "
+         << "stable left out):\n\n"
+         << markdown_table(header, rows) << "\n";
+      md << "At " << apart << " of " << compared
+         << " J values the two lowest pressures differ by more than 2 sigma in phi or mu"
+         << (apart > 0 ? ": there the data have not reached the hard-sphere (P -> 0) limit, and "
+                         "lower pressures are needed (the seed goes down to P = 1e-5)."
+                       : ".")
+         << "\n\n";
+    }
   }
 
   md << "\n## Fits per N (phi = phi_J - C_phi J^b_phi, mu = mu_J + C_mu J^b_mu)\n\n";
