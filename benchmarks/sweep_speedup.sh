@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The sweep engine's speed-up and overhead: a 2 x 2 sweep of small points (N = 2000, Euler,
-# about 5 s each) with `jamflow sweep -j 2`, against the same four points run one after another
+# about 10 s each) with `jamflow sweep -j 2`, against the same four points run one after another
 # with `jamflow run`, and against `jamflow sweep -j 1` (the engine's own overhead: its wall time
 # over the sum of the runs' own wall times). The cases take turns, ROUNDS times.
 #
@@ -30,8 +30,8 @@ kind = "euler"
 dt = 0.1
 [scene.run]
 t_eq = 100.0
-t_av = 1900.0
-sample_every = 10.0
+t_av = 19900.0
+sample_every = 100.0
 TOML
 now() { date +%s.%N; }
 sum_walls() {  # total of the runs' own wall_seconds in a sweep folder
@@ -47,7 +47,7 @@ for r in $(seq "$rounds"); do
   t1=$(now)
   # The same four scenes (each point's scene.toml), one after another.
   for scene in s1/points/*/scene.toml; do
-    "$jamflow" run "$scene" -q --threads 1 -o "serial/$(basename "$(dirname "$scene")").h5" > /dev/null
+    "$jamflow" run "$scene" -q --threads 1 -o "serial/$(basename "$(dirname "$scene")").h5" &> /dev/null
   done
   t2=$(now)
   "$jamflow" sweep bench.toml --out s2 -j 2 -q
