@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "lib/error.hpp"
+#include "lib/text_file.hpp"
 
 #ifndef JAMFLOW_PYTHON
 #define JAMFLOW_PYTHON "/usr/bin/python3"
@@ -97,16 +98,7 @@ void ensure_dir(const std::string& dir) {
 }
 
 void write_text(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".part";
-  {
-    std::ofstream out(tmp, std::ios::binary);
-    if (!out)
-      throw IoError("cannot write '" + tmp + "'");
-    out << text;
-    if (!out)
-      throw IoError("write failed for '" + tmp + "'");
-  }
-  std::filesystem::rename(tmp, path);
+  write_text_atomically(path, text);
 }
 
 }  // namespace jamflow::studies

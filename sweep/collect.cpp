@@ -12,6 +12,7 @@
 #include "driver/run.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
+#include "lib/text_file.hpp"
 #include "sweep/execute.hpp"
 
 namespace jamflow::sweep {
@@ -191,7 +192,7 @@ Collected collect(const Plan& plan, const std::string& path) {
         os << (i ? "," : "") << cells[i];
       os << "\n";
     }
-    write_atomically(path, os.str());
+    write_text_atomically(path, os.str());
   } else {
     write_h5_table(path, header, table);
   }

@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "lib/error.hpp"
+#include "lib/text_file.hpp"
 #include "sweep/execute.hpp"
 #include "sweep/mpi.hpp"
 
@@ -73,7 +74,7 @@ std::string write_slurm_script(const Plan& plan, SlurmOptions options) {
   namespace fs = std::filesystem;
   fs::create_directories(fs::path(plan.out_dir) / "slurm");
   const std::string script = (fs::path(plan.out_dir) / "sweep.sbatch").string();
-  write_atomically(script, slurm_script(plan, options));
+  write_text_atomically(script, slurm_script(plan, options));
   return script;
 }
 

@@ -20,6 +20,7 @@
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "lib/progress.hpp"
+#include "lib/text_file.hpp"
 
 extern char** environ;
 
@@ -38,25 +39,6 @@ std::string read_text(const std::string& path) {
   buf << in.rdbuf();
   return buf.str();
 }
-
-}  // namespace
-
-void write_atomically(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.flush();
-    if (!out)
-      throw IoError("cannot write '" + tmp + "'");
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec)
-    throw IoError("cannot rename '" + tmp + "' to '" + path + "': " + ec.message());
-}
-
-namespace {
 
 std::string status_of(const std::string& file) {
   try {
@@ -128,7 +110,7 @@ void prepare_out_dir(const Plan& plan) {
     if (ec)
       throw ConfigError("--out '" + plan.out_dir + "': cannot create '" + plan.point_dir(p) +
                         "' (" + ec.message() + ")");
-    write_atomically(file, text);
+    write_text_atomically(file, text);
   }
 }
 
@@ -329,7 +311,7 @@ void Coordinator::write_manifest() {
   os << "# jamflow sweep manifest: a view of the point files, rewritten as they change.\n"
      << root << "\n";
   try {
-    write_atomically((fs::path(plan_.out_dir) / "manifest.toml").string(), os.str());
+    write_text_atomically((fs::path(plan_.out_dir) / "manifest.toml").string(), os.str());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "sweep: warning: %s\n", e.what());
   }
@@ -439,7 +421,8 @@ int run_slots(const Plan& plan, const std::vector<Task>& tasks, const SlotOption
       if (now == TaskState::kCheckpointed) {
         args = {"run", "--resume", stem + ".h5.part", "-q"};
       } else {
-        write_atomically((fs::path(dir) / (stem + ".toml")).string(), plan.task_scene(t).text());
+        write_text_atomically((fs::path(dir) / (stem + ".toml")).string(),
+                              plan.task_scene(t).text());
         args = {"run", stem + ".toml", "-q"};
       }
       pid_t pid = -1;

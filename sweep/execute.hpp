@@ -92,10 +92,6 @@ int run_slots(
 int run_local(const Plan& plan, int jobs, const std::vector<std::size_t>& share, bool quiet,
               const std::string& exe, const std::atomic<int>* stop, std::atomic<bool>* checkpoint);
 
-// Writes a file through a temporary in the same folder (named by the process id, so processes
-// writing at once do not collide) and a rename: a reader sees the old or the new file whole.
-void write_atomically(const std::string& path, const std::string& text);
-
 // The path of the running binary (/proc/self/exe).
 std::string self_exe();
 

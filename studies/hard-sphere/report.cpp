@@ -1,6 +1,7 @@
 #include "studies/hard-sphere/report.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -109,6 +110,16 @@ std::string sigma_text(double ours, double err, double seed) {
 }
 
 }  // namespace
+
+int run_grid_study(const std::string& study, const GridPreset& grid, const StudyOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  SweepStudy points;
+  if (auto status = run_sweep_study(study, sweep_text(grid), options, points))
+    return *status;
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return analyze_and_report(study, grid, points, options, wall);
+}
 
 double seed_value(const std::string& parameter, double n) {
   const SizeLaw& law = table2().at(parameter);

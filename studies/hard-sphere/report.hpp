@@ -16,6 +16,10 @@ namespace jamflow::studies::hard_sphere {
 int analyze_and_report(const std::string& study, const GridPreset& grid, const SweepStudy& run,
                        const StudyOptions& options, double wall_seconds);
 
+// A grid study end to end: its points through the sweep engine (studies/sweep_study.hpp), then
+// analyze_and_report. Returns the exit status (that of the engine when it stopped early).
+int run_grid_study(const std::string& study, const GridPreset& grid, const StudyOptions& options);
+
 // The seed's value of a Table 2 parameter at size N from its size law
 // O(N) = O_inf + A_O N^-alpha_O (SPEC §5); N <= 0 gives O_inf.
 double seed_value(const std::string& parameter, double n);
