@@ -512,8 +512,23 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
   auto groups = group_by_size(points);
   if (groups.empty())
     throw InsufficientDataError("no data points");
-  for (const auto& [n, pts] : groups)
-    r.sizes.push_back(fit_size(n, pts, options));
+  for (const auto& [n, pts] : groups) {
+    try {
+      r.sizes.push_back(fit_size(n, pts, options));
+    } catch (const InsufficientDataError& e) {
+      r.unfitted.push_back({n, select_envelope(pts, options.envelope), e.what()});
+      r.failures.push_back(e.what());
+    } catch (const FitError& e) {
+      r.unfitted.push_back({n, select_envelope(pts, options.envelope), e.what()});
+      r.failures.push_back(e.what());
+    }
+  }
+  if (r.sizes.empty()) {
+    r.extrapolation_skipped = "no size could be fitted";
+    r.collapse_phi = {"phi", 0, 0, 0, 0, {}, {}, "no size could be fitted"};
+    r.collapse_mu = {"mu", 0, 0, 0, 0, {}, {}, "no size could be fitted"};
+    return r;
+  }
 
   const auto& names = hard_sphere_parameters();
   const int n_sizes = static_cast<int>(r.sizes.size());
@@ -587,6 +602,61 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
   };
   nu_from("b_phi", "phi_J", r.nu_phi);
   nu_from("b_mu", "mu_J", r.nu_mu);
+
+  // The finite-size collapse (Fig. 6), from the N -> infinity fits of O_J and b.
+  auto collapse = [&](const std::string& o_name, const std::string& b_name,
+                      const std::string& label) {
+    FiniteSizeCollapse c;
+    c.parameter = label;
+    const Extrapolation* o = find(o_name);
+    const Extrapolation* b = find(b_name);
+    if (!o || o->status != Extrapolation::Status::kFit) {
+      c.unavailable = o_name + "(N) = " + o_name +
+                      "_inf + A N^-alpha is not fitted (A and alpha are needed to scale)";
+      return c;
+    }
+    if (!b || !(b->inf.value > 0.0)) {
+      c.unavailable = b_name + "(N -> infinity) is not determined";
+      return c;
+    }
+    c.inf = o->fit->params[0];
+    c.a = o->fit->params[1];
+    c.alpha = o->fit->params[2];
+    c.b = b->inf.value;
+    for (std::size_t k = 0; k < r.sizes.size(); ++k) {
+      const SizeFit& s = r.sizes[k];
+      const double nn = static_cast<double>(s.n);
+      const double shift = c.a * std::pow(nn, -c.alpha);
+      if (!(std::fabs(shift) > 0.0))
+        continue;
+      for (const auto& e : s.points) {
+        if (!in_envelope(e.status))
+          continue;
+        const double v = label == "phi" ? e.point.phi : e.point.mu;
+        const double err = label == "phi" ? e.point.phi_err : e.point.mu_err;
+        if (!(err > 0.0))
+          continue;
+        c.scaled.push_back({e.point.j * std::pow(nn, c.alpha / c.b), (v - c.inf) / shift,
+                            err / std::fabs(shift), k, 0});
+      }
+    }
+    // The quality in the coordinates of the paper's log-log plot, where the
+    // master curve 1 + |C/A| x^b is straight in both limits: ln x, ln y and
+    // d(ln y) = dy / y. Points with y <= 0 (noise larger than the finite-size
+    // shift) cannot be placed there and do not count.
+    std::vector<CollapsePoint> logs;
+    for (const auto& q : c.scaled) {
+      if (q.y > 0.0)
+        logs.push_back({std::log(q.x), std::log(q.y), q.dy / q.y, q.curve, 0});
+    }
+    c.quality = houdayer_hartmann(logs);
+    c.quality.total = c.scaled.size();
+    if (c.quality.used == 0)
+      c.unavailable = "no two sizes overlap in x = J N^(alpha/b)";
+    return c;
+  };
+  r.collapse_phi = collapse("phi_J", "b_phi", "phi");
+  r.collapse_mu = collapse("mu_J", "b_mu", "mu");
 
   // Viscosity law: N -> infinity parameters when all six extrapolated, else
   // the largest size (stated in the output).

@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/collapse.hpp"
 #include "analysis/data.hpp"
 #include "analysis/fit.hpp"
 
@@ -153,8 +154,33 @@ struct ViscosityLaw {
 ViscosityLaw viscosity_law(std::vector<double> params, std::vector<double> covariance,
                            std::string source, double window_min, double window_max);
 
+// A size whose envelope holds too few points for the fits (or whose fit failed):
+// its envelope is still reported.
+struct UnfittedSize {
+  std::int64_t n = 0;
+  std::vector<EnvelopePoint> points;
+  std::string reason;
+};
+
+// The finite-size collapse of one parameter (paper Fig. 6, Eqs. scaling_phi,
+// scaling_mu): with O(J, N) = O_inf + A N^-alpha -/+ C J^b, the envelope points
+// of every fitted size collapse onto one curve in
+//   x = J N^(alpha/b),  y = (O(J, N) - O_inf) / (A N^-alpha)
+// (y -> 1 as x -> 0, for phi y = 1 + |C/A| x^b). The quality is Houdayer and
+// Hartmann's S over the sizes as curves (analysis/collapse.hpp), with
+// dy = O_err / |A N^-alpha|: S ~ 1 is a collapse within the errors.
+struct FiniteSizeCollapse {
+  std::string parameter;  // "phi" or "mu"
+  double inf = 0.0, a = 0.0, alpha = 0.0, b = 0.0;
+  std::vector<CollapsePoint> scaled;  // curve = index into HardSphereResult::sizes
+  CollapseQuality quality;
+  std::string unavailable;  // why not computed (then the rest is empty)
+};
+
 struct HardSphereResult {
-  std::vector<SizeFit> sizes;                 // ascending N
+  std::vector<SizeFit> sizes;          // ascending N
+  std::vector<UnfittedSize> unfitted;  // ascending N
+  FiniteSizeCollapse collapse_phi, collapse_mu;
   std::vector<Extrapolation> extrapolations;  // empty when skipped
   std::string extrapolation_skipped;          // reason, when skipped
   std::optional<Measured> nu_phi, nu_mu;
@@ -168,6 +194,8 @@ struct HardSphereResult {
 SizeFit fit_size(std::int64_t n, const std::vector<GranularPoint>& points,
                  const HardSphereOptions& options);
 
+// Every size is fitted where its envelope allows; a size that cannot be fitted
+// goes to `unfitted` and to `failures` (the rest is still computed).
 HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
                                      const HardSphereOptions& options);
 

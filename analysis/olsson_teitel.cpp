@@ -41,16 +41,6 @@ double median(std::vector<double> v) {
 
 }  // namespace
 
-double CollapseQuality::error() const {
-  if (used == 0)
-    return std::numeric_limits<double>::infinity();
-  return std::sqrt((2.0 + 4.0 * std::max(s - 1.0, 0.0)) / static_cast<double>(used));
-}
-
-bool CollapseQuality::acceptable() const {
-  return used > 0 && s <= 1.0 + 3.0 * std::sqrt(2.0 / static_cast<double>(used));
-}
-
 HoudayerHartmann::HoudayerHartmann(std::vector<ShearPoint> points) : points_(std::move(points)) {
   std::map<std::string, std::size_t> ids;
   for (const auto& p : points_) {
@@ -85,79 +75,18 @@ std::vector<HoudayerHartmann::Scaled> HoudayerHartmann::scaled(const CollapsePar
 
 CollapseQuality HoudayerHartmann::evaluate(const CollapseParams& p,
                                            const std::vector<double>* sigma_override) const {
-  struct Pt {
-    double x, y, dy;
-  };
-  const std::size_t n = points_.size();
-  const std::size_t nsets = set_names_.size();
-  std::vector<std::array<std::vector<Pt>, 2>> curves(nsets);
-  std::vector<double> xs(n), ys(n);
-  std::vector<int> branch(n, -1);
-  CollapseQuality q;
-  for (std::size_t i = 0; i < n; ++i) {
+  std::vector<CollapsePoint> scaled;
+  scaled.reserve(points_.size());
+  for (std::size_t i = 0; i < points_.size(); ++i) {
     const double d = points_[i].phi - p.phi_j;
     if (std::fabs(d) < kMinAbsDelta)
       continue;
     const double ld = std::log(std::fabs(d));
     const double ls = sigma_override ? std::log((*sigma_override)[i]) : log_sigma_[i];
-    xs[i] = log_gdot_[i] - (p.alpha + p.beta) * ld;
-    ys[i] = ls - p.alpha * ld;
-    branch[i] = d > 0 ? 1 : 0;
-    curves[set_of_[i]][branch[i]].push_back({xs[i], ys[i], dy_[i]});
-    ++q.total;
+    scaled.push_back({log_gdot_[i] - (p.alpha + p.beta) * ld, ls - p.alpha * ld, dy_[i], set_of_[i],
+                      d > 0 ? 1 : 0});
   }
-  for (auto& c : curves) {
-    for (auto& b : c) {
-      std::sort(b.begin(), b.end(), [](const Pt& a, const Pt& c2) { return a.x < c2.x; });
-    }
-  }
-  double sum = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (branch[i] < 0)
-      continue;
-    const double xi = xs[i];
-    double s0 = 0, s1 = 0, s2 = 0, t0 = 0, t1 = 0;
-    int count = 0;
-    for (std::size_t k = 0; k < nsets; ++k) {
-      if (k == set_of_[i])
-        continue;  // never the point's own curve
-      const auto& c = curves[k][branch[i]];
-      if (c.size() < 2 || xi < c.front().x || xi > c.back().x)
-        continue;
-      auto hi =
-          std::upper_bound(c.begin(), c.end(), xi, [](double v, const Pt& a) { return v < a.x; });
-      if (hi == c.end())
-        --hi;
-      auto lo = hi - 1;
-      for (auto it : {lo, hi}) {
-        const double w = 1.0 / (it->dy * it->dy);
-        const double dx = it->x - xi;
-        s0 += w;
-        s1 += w * dx;
-        s2 += w * dx * dx;
-        t0 += w * it->y;
-        t1 += w * dx * it->y;
-      }
-      ++count;
-    }
-    if (count == 0)
-      continue;
-    // Weighted straight line y = m0 + m1 (x - x_i) through the neighbours:
-    // Y_i = m0, dY_i^2 = Var(m0).
-    double y_hat = 0.0, var_hat = 0.0;
-    const double det = s0 * s2 - s1 * s1;
-    if (det > 1e-12 * s0 * s2 && det > 0.0) {
-      y_hat = (s2 * t0 - s1 * t1) / det;
-      var_hat = s2 / det;
-    } else {  // all neighbours at the same x: their weighted mean
-      y_hat = t0 / s0;
-      var_hat = 1.0 / s0;
-    }
-    sum += std::pow(ys[i] - y_hat, 2) / (dy_[i] * dy_[i] + var_hat);
-    ++q.used;
-  }
-  q.s = q.used > 0 ? sum / static_cast<double>(q.used) : std::numeric_limits<double>::infinity();
-  return q;
+  return houdayer_hartmann(scaled);
 }
 
 namespace {

@@ -1,15 +1,10 @@
 // Olsson–Teitel two-branch scaling (paper label `teitel`, Fig. 9):
 //   sigma_xy = |phi - phi_J|^alpha G_pm( gdot / |phi - phi_J|^(alpha+beta) ),
-// and a quantitative collapse-quality measure: Houdayer & Hartmann,
-// Phys. Rev. B 70, 014418 (2004). In the scaled variables
+// and a quantitative collapse-quality measure, Houdayer & Hartmann's S
+// (analysis/collapse.hpp), in the scaled variables
 //   x = ln gdot - (alpha+beta) ln|phi - phi_J|,  y = ln sigma - alpha ln|phi - phi_J|,
-// each point i of one branch is compared with the master curve Y(x_i) estimated
-// from the *other* curves of that branch only: from each other curve the two
-// points bracketing x_i, through which a weighted straight line is fitted.
-//   S = (1/N_used) sum_i (y_i - Y_i)^2 / (dy_i^2 + dY_i^2),
-// dy_i = sigma_err/sigma, dY_i the error of the line at x_i. S ~ 1 for a
-// collapse consistent with the data errors, S >> 1 for a bad one. Points
-// without bracketing neighbours do not count.
+// with dy = sigma_err/sigma, the curves being the densities and the branches
+// the signs of phi - phi_J.
 // We use it rather than Bhattacharjee–Seno because it weighs residuals by
 // the data errors, so S has an absolute meaning ("consistent within errors"),
 // which is what "acceptable collapse" means in the paper.
@@ -20,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "analysis/collapse.hpp"
 #include "analysis/data.hpp"
 #include "analysis/fit.hpp"
 
@@ -29,19 +25,6 @@ struct CollapseParams {
   double phi_j = 0.6474;  // paper: best phi_J
   double alpha = 1.33;    // paper: 1/x
   double beta = 2.55;     // paper: 1/b_phi
-};
-
-struct CollapseQuality {
-  double s = 0.0;         // Houdayer–Hartmann S
-  std::size_t used = 0;   // points with neighbours on another curve
-  std::size_t total = 0;  // points in the data (not at phi = phi_J)
-  // Spread of S if the residuals were Gaussian with the observed mean square:
-  // a mean of N_used noncentral chi2(1) terms has variance (2 + 4 (S-1)) / N_used
-  // (correlations between neighbouring interpolations are neglected).
-  double error() const;
-  // Consistent with a perfect collapse: S <= 1 + 3 sqrt(2/N_used), the
-  // 3-sigma upper end of S for Gaussian residuals with the stated errors.
-  bool acceptable() const;
 };
 
 class HoudayerHartmann {

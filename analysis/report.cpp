@@ -148,6 +148,17 @@ Measured size_param(const SizeFit& s, const std::string& name) {
   return s.mu[name];
 }
 
+// How many points of a size have each envelope status.
+Json envelope_counts_json(const std::vector<EnvelopePoint>& points) {
+  std::map<std::string, std::int64_t> counts;
+  for (const auto& e : points)
+    ++counts[to_string(e.status)];
+  Json j = Json::object();
+  for (const auto& [status, count] : counts)
+    j[status] = count;
+  return j;
+}
+
 Json viscosity_json(const ViscosityLaw& v) {
   Json j = Json::object();
   j["source"] = v.source;
@@ -193,9 +204,39 @@ Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
     js["J_range"] = Json(std::vector<double>{s.j_min, s.j_max});
     js["fit_phi"] = fit_summary(s.phi);
     js["fit_mu"] = fit_summary(s.mu);
+    js["fitted"] = true;
+    js["envelope"] = envelope_counts_json(s.points);
     sizes[std::to_string(s.n)] = js;
   }
+  for (const auto& u : r.unfitted) {
+    Json js = Json::object();
+    js["fitted"] = false;
+    js["reason"] = u.reason;
+    std::int64_t in = 0;
+    for (const auto& e : u.points)
+      in += in_envelope(e.status) ? 1 : 0;
+    js["points_used"] = in;
+    js["points_total"] = static_cast<std::int64_t>(u.points.size());
+    js["envelope"] = envelope_counts_json(u.points);
+    sizes[std::to_string(u.n)] = js;
+  }
   j["sizes"] = sizes;
+  Json collapse = Json::object();
+  for (const FiniteSizeCollapse* c : {&r.collapse_phi, &r.collapse_mu}) {
+    Json jc = Json::object();
+    if (!c->unavailable.empty()) {
+      jc["unavailable"] = c->unavailable;
+    } else {
+      jc["quality"] = quality_json(c->quality);
+      jc["scaling"] = Json(std::vector<double>{c->inf, c->a, c->alpha, c->b});
+      jc["scaling_names"] = strings_json({"O_inf", "A_O", "alpha_O", "b"});
+    }
+    collapse[c->parameter] = jc;
+  }
+  collapse["measure"] =
+      "Houdayer-Hartmann S of y = (O - O_inf)/(A_O N^-alpha_O) against x = J N^(alpha_O/b), "
+      "sizes as curves; S ~ 1: collapse within the errors";
+  j["finite_size_collapse"] = collapse;
   Json ex = Json::object();
   if (!r.extrapolation_skipped.empty()) {
     ex["skipped"] = r.extrapolation_skipped;
@@ -279,6 +320,12 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
     md << " | " << fmt(s.phi.reduced_chi2(), "%.2f") << " | " << fmt(s.mu.reduced_chi2(), "%.2f")
        << " |\n";
   }
+  for (const auto& u : r.unfitted) {
+    md << "| " << u.n << " | not fitted | | | | | | | | | |\n";
+  }
+  for (const auto& u : r.unfitted) {
+    md << "\nN = " << u.n << " is not fitted: " << u.reason << ".\n";
+  }
   md << "\n## Large-N extrapolation O(N) = O_inf + A_O N^-alpha_O, compared with Table 2\n\n";
   if (!r.extrapolation_skipped.empty()) {
     md << "Skipped: " << r.extrapolation_skipped << ".\n\n";
@@ -318,6 +365,20 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
   md << "| from | nu | paper |\n|---|---|---|\n";
   md << "| phi | " << (r.nu_phi ? format_measured(*r.nu_phi) : "n/a") << " | 0.153 |\n";
   md << "| mu | " << (r.nu_mu ? format_measured(*r.nu_mu) : "n/a") << " | 0.184 |\n\n";
+  md << "## Finite-size collapse (Fig. 6)\n\n";
+  md << "y = (O(J, N) - O_inf) / (A_O N^-alpha_O) against x = J N^(alpha_O/b), from the "
+        "N -> infinity fits above. Quality: Houdayer-Hartmann S over the sizes as curves "
+        "(S ~ 1: the sizes collapse within their errors; acceptable: S <= 1 + 3 sqrt(2/N_used))."
+        "\n\n";
+  md << "| O | S (points used/total) | acceptable |\n|---|---|---|\n";
+  for (const FiniteSizeCollapse* c : {&r.collapse_phi, &r.collapse_mu}) {
+    if (!c->unavailable.empty())
+      md << "| " << c->parameter << " | not computed: " << c->unavailable << " | |\n";
+    else
+      md << "| " << c->parameter << " | " << quality_md(c->quality) << " | "
+         << (c->quality.acceptable() ? "yes" : "no") << " |\n";
+  }
+  md << "\n";
   if (r.viscosity) {
     const auto& v = *r.viscosity;
     md << "## Viscosity law eta(phi) (" << v.source << ")\n\n";
@@ -374,6 +435,51 @@ Json hard_sphere_plot_data(const HardSphereResult& r) {
     sizes.push_back(js);
   }
   j["sizes"] = sizes;
+  Json unfitted = Json::array();
+  for (const auto& u : r.unfitted) {
+    Json js = Json::object();
+    js["N"] = static_cast<std::int64_t>(u.n);
+    std::vector<double> p, jj, phi, phi_err, mu, mu_err;
+    Json status = Json::array();
+    for (const auto& e : u.points) {
+      p.push_back(e.point.pressure);
+      jj.push_back(e.point.j);
+      phi.push_back(e.point.phi);
+      phi_err.push_back(e.point.phi_err);
+      mu.push_back(e.point.mu);
+      mu_err.push_back(e.point.mu_err);
+      status.push_back(to_string(e.status));
+    }
+    js["P"] = Json(p);
+    js["J"] = Json(jj);
+    js["phi"] = Json(phi);
+    js["phi_err"] = Json(phi_err);
+    js["mu"] = Json(mu);
+    js["mu_err"] = Json(mu_err);
+    js["status"] = status;
+    unfitted.push_back(js);
+  }
+  j["unfitted"] = unfitted;
+  Json collapse = Json::object();
+  for (const FiniteSizeCollapse* c : {&r.collapse_phi, &r.collapse_mu}) {
+    if (!c->unavailable.empty())
+      continue;
+    Json jc = Json::object();
+    std::vector<double> x, y, dy, n;
+    for (const auto& q : c->scaled) {
+      x.push_back(q.x);
+      y.push_back(q.y);
+      dy.push_back(q.dy);
+      n.push_back(static_cast<double>(r.sizes[q.curve].n));
+    }
+    jc["x"] = Json(x);
+    jc["y"] = Json(y);
+    jc["dy"] = Json(dy);
+    jc["N"] = Json(n);
+    jc["S"] = Json(std::vector<double>{c->quality.s, c->quality.error()});
+    collapse[c->parameter] = jc;
+  }
+  j["collapse"] = collapse;
   Json ex = Json::object();
   for (const auto& e : r.extrapolations) {
     if (e.status == Extrapolation::Status::kFit) {

@@ -19,7 +19,34 @@ def arrays(s):
 
 
 def fig4():
-    fig, axes = plt.subplots(len(sizes), 2, figsize=(9, 2.8 * len(sizes)), squeeze=False)
+    unfitted = data.get("unfitted", [])
+    rows = len(sizes) + len(unfitted)
+    if rows == 0:
+        return
+    fig, axes = plt.subplots(rows, 2, figsize=(9, 2.8 * rows), squeeze=False)
+    for row, s in enumerate(unfitted, start=len(sizes)):
+        # No fit: phi(J) and mu(J) themselves, filled where a point is in the envelope.
+        a = arrays(s)
+        env = np.array([st in IN_ENVELOPE for st in s["status"]])
+        pressures = sorted(set(a["P"]))
+        cols = colours(plt, len(pressures))
+        for col, (name, label) in enumerate([("phi", r"$\varphi$"), ("mu", r"$\mu$")]):
+            ax = axes[row][col]
+            for p, c in zip(pressures, cols):
+                sel = a["P"] == p
+                labelled = False
+                for mask, face in ((sel & env, c), (sel & ~env, "none")):
+                    if mask.any():
+                        ax.errorbar(a["J"][mask], a[name][mask], yerr=a[name + "_err"][mask],
+                                    fmt="o-", ms=4, mfc=face, mec=c, color=c, lw=0.8,
+                                    label=None if labelled else f"P={p:g}")
+                        labelled = True
+            ax.set_xscale("log")
+            ax.set_xlabel(r"$J$")
+            ax.set_ylabel(label)
+            ax.set_title(f"N = {s['N']}: not fitted (filled = envelope)", fontsize=9)
+            if col == 0:
+                ax.legend(fontsize=7)
     for row, s in enumerate(sizes):
         a = arrays(s)
         par = {k: v[0] for k, v in s["params"].items()}
@@ -61,6 +88,8 @@ def fig4():
 
 
 def fig5():
+    if not sizes:
+        return
     ns = np.array([s["N"] for s in sizes], dtype=float)
     nn = np.logspace(np.log10(ns.min()) - 0.2, np.log10(ns.max()) + 0.5, 100)
     fig, axes = plt.subplots(2, 3, figsize=(11, 6))
@@ -120,6 +149,11 @@ def fig6():
                    ylabel=r"$\varphi_J(\infty) - \varphi$" if obs == "phi" else r"$\mu - \mu_J(\infty)$")
         ax_scaled.set(xscale="log", yscale="log", xlabel=r"$J N^{\alpha_O / b}$",
                       ylabel=r"$|O - O_J(\infty)| / |A_O N^{-\alpha_O}|$")
+        quality = data.get("collapse", {}).get(obs)
+        if quality is not None:
+            s_value, s_err = quality["S"]
+            ax_scaled.set_title(f"collapse quality S = {s_value:.2g} +- {s_err:.2g} "
+                                "(S ~ 1: within errors)", fontsize=9)
         ax_raw.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(prefix + "_fig6.png", dpi=110)

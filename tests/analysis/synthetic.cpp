@@ -39,7 +39,14 @@ std::vector<GranularPoint> make_granular(const GranularSpec& spec) {
   std::normal_distribution<double> normal(0.0, 1.0);
   std::vector<GranularPoint> out;
   for (auto n : spec.sizes) {
-    const RheologyParams t = table2_at(static_cast<double>(n));
+    RheologyParams t = table2_at(static_cast<double>(n));
+    if (spec.size_independent_shape) {
+      const RheologyParams inf = table2_infinite();
+      t.b_phi = inf.b_phi;
+      t.c_phi = inf.c_phi;
+      t.b_mu = inf.b_mu;
+      t.c_mu = inf.c_mu;
+    }
     for (double p : spec.pressures) {
       const double shift_phi =
           spec.soft ? spec.soft_truth.c_phi * std::pow(p, spec.soft_truth.x) : 0;

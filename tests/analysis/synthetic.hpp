@@ -38,6 +38,9 @@ struct GranularSpec {
   int points_per_decade = 3;
   double rel_noise = 0.02;
   bool soft = true;  // false: pure hard-sphere data at every P
+  // true: only phi_J and mu_J depend on N (b and C at their N -> infinity
+  // values), the paper's finite-size scaling form (scalingphi, scalingmu)
+  bool size_independent_shape = false;
   SoftTruth soft_truth;
   std::uint64_t seed = 1;
 };
