@@ -105,6 +105,7 @@ Collected collect(const Plan& plan, const std::string& path) {
     const Point* point;
     RunSpec spec;
     Summary sum;
+    double wall_seconds = 0.0, force_evaluations = 0.0;  // summed over replicas: the cost
   };
   std::vector<Row> rows;
   bool all_cp = true;
@@ -129,6 +130,14 @@ Collected collect(const Plan& plan, const std::string& path) {
       continue;
     }
     Row row{&p, parse_run_spec(plan.task_scene(*ts.front())), {}};
+    for (const Summary& s : sums) {
+      const auto value = [&](const char* k) {
+        const auto it = s.values.find(k);
+        return it == s.values.end() ? 0.0 : it->second;
+      };
+      row.wall_seconds += value("wall_seconds");
+      row.force_evaluations += value("integrator_force_evaluations");
+    }
     row.sum = sums.size() > 1 ? combine_replicas(sums) : sums.front();
     all_cp = all_cp && row.spec.ensemble->imposed_pressure().has_value();
     rows.push_back(std::move(row));
@@ -147,8 +156,8 @@ Collected collect(const Plan& plan, const std::string& path) {
     header.push_back(o);
     header.push_back(o + "_err");
   }
-  for (const char* c :
-       {"J", "energy_balance", "replicas", "steady", "stable", "decorrelated", "folder"})
+  for (const char* c : {"J", "energy_balance", "replicas", "steady", "stable", "decorrelated",
+                        "wall_seconds", "force_evaluations", "folder"})
     header.push_back(c);
 
   std::vector<std::vector<std::string>> table;
@@ -179,6 +188,8 @@ Collected collect(const Plan& plan, const std::string& path) {
     cells.push_back(std::to_string(several ? static_cast<long long>(get("replicas")) : 1LL));
     for (const char* verdict : {"steady", "stable", "decorrelated"})
       cells.push_back(cell(get(verdict)));
+    cells.push_back(cell(row.wall_seconds));
+    cells.push_back(cell(row.force_evaluations));
     cells.push_back(csv_text(fs::relative(plan.point_dir(*row.point), plan.out_dir).string()));
     table.push_back(std::move(cells));
   }

@@ -16,6 +16,8 @@
 #include "analysis/json.hpp"
 #include "lib/h5.hpp"
 #include "studies/common.hpp"
+#include "sweep/engine.hpp"
+#include "sweep/plan.hpp"
 
 namespace jamflow::studies::hard_sphere {
 namespace fs = std::filesystem;
@@ -107,6 +109,79 @@ std::string sigma_text(double ours, double err, double seed) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%+.1f sigma%s", z, std::fabs(z) > 2.0 ? " (disagrees)" : "");
   return buf;
+}
+
+// What the points cost, measured: CPU time (each replica ran on one thread, so its wall time)
+// per integrator, per particle force evaluation and per particle and tau_0, and what the paper
+// preset would need at the measured rate.
+std::string cost_section(const std::string& study, const Table& table, const SweepStudy& run) {
+  struct Cost {
+    int points = 0;
+    double seconds = 0.0, particle_evaluations = 0.0, particle_time = 0.0;
+  };
+  std::map<std::string, Cost> by_kind;
+  Cost all;
+  std::string slowest;
+  double slowest_seconds = 0.0;
+  for (std::size_t r = 0; r < table.rows.size(); ++r) {
+    const double n = table.number(r, "N"), wall = table.number(r, "wall_seconds"),
+                 evals = table.number(r, "force_evaluations");
+    if (!(wall > 0.0) || !(evals > 0.0))
+      continue;
+    const double reps = std::max(1.0, table.number(r, "replicas"));
+    const double t = table.number(r, "run.t_eq") + table.number(r, "run.t_av");
+    const IntegratorChoice ic = integrator_for(std::int64_t(n), table.number(r, "P"));
+    for (Cost* c :
+         {&by_kind[ic.kind == "cvode" ? "cvode" : ic.kind + " dt " + num(ic.dt, 2)], &all}) {
+      ++c->points;
+      c->seconds += wall;
+      c->particle_evaluations += n * evals;
+      c->particle_time += std::isfinite(t) ? n * t * reps : 0.0;
+    }
+    if (wall > slowest_seconds) {
+      slowest_seconds = wall;
+      slowest = table.text(r, "point");
+    }
+  }
+  std::ostringstream md;
+  md << "\n## Cost\n\n";
+  if (all.points == 0) {
+    md << "The table has no cost columns (collected before they existed).\n";
+    return md.str();
+  }
+  std::vector<std::vector<std::string>> rows;
+  auto row = [&](const std::string& name, const Cost& c) {
+    rows.push_back({name, std::to_string(c.points), num(c.seconds / 3600.0, 3),
+                    num(1e9 * c.seconds / c.particle_evaluations, 3),
+                    c.particle_time > 0.0 ? num(c.particle_evaluations / c.particle_time, 3) : "-",
+                    c.particle_time > 0.0 ? num(1e9 * c.seconds / c.particle_time, 3) : "-"});
+  };
+  for (const auto& [kind, c] : by_kind)
+    row(kind, c);
+  row("all", all);
+  md << "Measured from the point files: CPU time is each replica's wall time on one thread, on a "
+        "2-core machine shared with other work (timings there drift by 20-50%).\n\n"
+     << markdown_table({"integrator", "points", "CPU hours", "ns per particle force evaluation",
+                        "force evaluations per tau_0", "ns per particle per tau_0"},
+                       rows)
+     << "\nThe most expensive point: " << slowest << ", " << num(slowest_seconds, 3)
+     << " CPU seconds over its replicas. The estimate before the run was "
+     << num(run.cpu_hours_estimate, 3) << " CPU-hours (40 ns per force evaluation).\n";
+  try {
+    const GridPreset paper =
+        study == "finite-size" ? finite_size_preset("paper") : grid_preset("paper");
+    const sweep::Plan plan = sweep::parse_plan(sweep_text(paper), "<paper preset>", ".", "paper");
+    const sweep::CostEstimate est = sweep::estimate_cost(plan);
+    const double ns = 1e9 * all.seconds / all.particle_evaluations;
+    md << "\nThe paper preset (" << plan.points.size() << " points x " << plan.replicas
+       << " replicas) is estimated at " << num(est.cpu_hours, 3)
+       << " CPU-hours at 40 ns per force evaluation; at the " << num(ns, 3)
+       << " ns measured here, about " << num(est.cpu_hours * ns / 40.0, 3)
+       << " CPU-hours (`jamflow study " << study << " --preset paper --dry-run`).\n";
+  } catch (const std::exception& e) {
+    md << "\n(The paper preset could not be estimated: " << e.what() << ")\n";
+  }
+  return md.str();
 }
 
 }  // namespace
@@ -318,6 +393,10 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
       const double nn = std::stod(n);
       double used = fit.contains("points_used") ? fit.at("points_used").as_number() : 0.0;
       md << "### N = " << n << " (" << num(used, 3) << " points in the P -> 0 envelope)\n\n";
+      if (fit.contains("fitted") && !fit.at("fitted").as_bool()) {
+        md << "Not fitted: " << fit.at("reason").as_string() << ".\n\n";
+        continue;
+      }
       std::vector<std::vector<std::string>> rows;
       for (const char* p : kParameters) {
         double v = 0.0, e = 0.0;
@@ -390,6 +469,27 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
   if (eta_max > 0.0)
     md << "\nThe points cover eta/eta_0 = mu/J from " << num(eta_min, 3) << " to "
        << num(eta_max, 3) << ": " << num(std::log10(eta_max / eta_min), 3) << " decades.\n";
+  if (result.is_object() && result.contains("finite_size_collapse")) {
+    const auto& fc = result.at("finite_size_collapse");
+    md << "\n## Finite-size collapse (Fig. 6)\n\n";
+    for (const char* o : {"phi", "mu"}) {
+      if (!fc.contains(o))
+        continue;
+      const auto& c = fc.at(o);
+      md << "- " << o << ": ";
+      if (c.contains("unavailable")) {
+        md << "not computed: " << c.at("unavailable").as_string() << ".\n";
+        continue;
+      }
+      const auto& q = c.at("quality");
+      md << "Houdayer-Hartmann S = " << pm(q.at("value").as_number(), q.at("error").as_number(), 3)
+         << " over " << num(q.at("points_used").as_number(), 4) << " points ("
+         << (q.at("acceptable").as_bool() ? "the sizes collapse within their errors"
+                                          : "not a collapse within the errors")
+         << ").\n";
+    }
+  }
+  md << cost_section(study, table, run);
   md << "\nDetails of the fits, the envelope of every point and the figures of "
         "`jamflow analyze hard-sphere`: analysis.md. Flow curves: flow_curves.png.\n";
   write_text((fs::path(out) / "report.md").string(), md.str());
