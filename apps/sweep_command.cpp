@@ -44,6 +44,7 @@ int sweep_command(const std::vector<std::string>& args) {
   std::string sweep_path, out_dir, collect_path, time = "24:00:00", partition;
   int jobs = 0, task = -1, array_size = 0, cpus = 1, signal_seconds = 300;
   bool slurm = false, dry_run = false, quiet = false;
+  std::vector<std::string> reuse;
   app.add_option("sweep", sweep_path, "sweep file (TOML)")->required();
   app.add_option("--out", out_dir, "output folder (default: <sweep stem>.sweep beside the file)");
   app.add_option("-j,--jobs", jobs, "points run at once, one thread each (default: the cores)")
@@ -65,6 +66,9 @@ int sweep_command(const std::vector<std::string>& args) {
   app.add_option("--signal-seconds", signal_seconds,
                  "Slurm sends TERM this long before the time limit (--slurm)")
       ->check(CLI::Range(10, 65535));
+  app.add_option("--reuse", reuse,
+                 "folder of other sweeps (repeatable): finished replicas of the very same scene "
+                 "are copied in, not rerun");
   app.add_flag("-q,--quiet", quiet, "no progress line");
   std::vector<std::string> rev(args.rbegin(), args.rend());
   try {
@@ -108,6 +112,7 @@ int sweep_command(const std::vector<std::string>& args) {
   eo.quiet = quiet;
   eo.task = task;
   eo.array_size = array_size;
+  eo.reuse = reuse;
   return sweep::run_plan(plan, eo);
 }
 

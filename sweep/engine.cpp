@@ -11,6 +11,7 @@
 #include "lib/text_file.hpp"
 #include "sweep/execute.hpp"
 #include "sweep/mpi.hpp"
+#include "sweep/reuse.hpp"
 
 namespace jamflow::sweep {
 namespace {
@@ -45,6 +46,13 @@ std::string jamflow_exe() {
 int run_plan(const Plan& plan, const EngineOptions& o) {
   install_signal_handlers();
   const std::string exe = o.exe.empty() ? jamflow_exe() : o.exe;
+  if (!o.reuse.empty() && (!mpi_launched() || launched_rank() == 0)) {
+    prepare_out_dir(plan);
+    const Reused r = reuse_finished(plan, o.reuse);
+    if (!o.quiet && r.replicas > 0)
+      std::fprintf(stderr, "sweep %s: %zu replicas reused from finished runs of the same scene\n",
+                   plan.name.c_str(), r.replicas);
+  }
   if (mpi_launched()) {
     if (o.task >= 0)
       throw ConfigError(

@@ -3,6 +3,7 @@
 // Slurm job array for it.
 #pragma once
 #include <string>
+#include <vector>
 
 #include "sweep/plan.hpp"
 #include "sweep/slurm.hpp"
@@ -15,6 +16,9 @@ struct EngineOptions {
   int task = -1;  // >= 0: run only this array task's share (of array_size)
   int array_size = 0;
   std::string exe;  // the jamflow binary; empty: jamflow_exe()
+  // Folders of other sweeps: finished replicas of the very same scene are copied in, not rerun
+  // (sweep/reuse.hpp).
+  std::vector<std::string> reuse;
 };
 
 // SIGINT, SIGTERM, SIGHUP: the running tasks checkpoint and the engine stops; SIGUSR1: the

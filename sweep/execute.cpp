@@ -40,6 +40,8 @@ std::string read_text(const std::string& path) {
   return buf.str();
 }
 
+}  // namespace
+
 std::string status_of(const std::string& file) {
   try {
     H5Reader r(file);
@@ -48,8 +50,6 @@ std::string status_of(const std::string& file) {
     return std::string("unreadable: ") + e.what();
   }
 }
-
-}  // namespace
 
 const char* state_name(TaskState s) {
   switch (s) {

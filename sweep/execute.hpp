@@ -21,6 +21,10 @@ namespace jamflow::sweep {
 enum class TaskState { kWaiting, kCheckpointed, kRunning, kDone, kFailed, kBusyElsewhere };
 const char* state_name(TaskState s);
 
+// The root attribute "status" of a run file ("complete", "running", "interrupted at ...",
+// "failed at ..."), or "unreadable: <why>".
+std::string status_of(const std::string& file);
+
 // What the files say of a task (kWaiting, kCheckpointed, kDone or kFailed); `detail` gets the
 // file's status text.
 TaskState probe(const Plan& plan, const Task& task, std::string* detail = nullptr);

@@ -5,7 +5,8 @@
 #  2. --collect writes one row per point, and `jamflow analyze` reads the table as it is;
 #  3. a sweep interrupted with SIGINT (exit 130) and rerun completes with the same bits as an
 #     uninterrupted one, resumes the interrupted point and does not recompute finished points;
-#  4. a bad value in one point is one line naming the point and the key, exit 2, before any run.
+#  4. a bad value in one point is one line naming the point and the key, exit 2, before any run;
+#  5. --reuse copies finished replicas of the very same scene from another sweep, not rerun.
 # usage: sweep_test.sh JAMFLOW_BINARY      (exit 77: skipped)
 set -uo pipefail
 jamflow="$(realpath "$1")"
@@ -13,7 +14,7 @@ here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 py=/usr/bin/python3
 compare="$py $here/compare_runs.py"
 work="$(mktemp -d /tmp/jamflow-sweep-test.XXXXXX)"
-trap 'rm -rf "$work"' EXIT
+trap '[ -n "${SWEEP_TEST_KEEP:-}" ] || rm -rf "$work"' EXIT
 cd "$work"
 passed=0
 failed=0
@@ -166,6 +167,49 @@ status=$?
 [ "$(wc -l < bad.err)" -eq 1 ] && grep -q "sweep point phi-1.5: .*phi" bad.err &&
   ok "bad point: one line naming the point and the key" || bad "bad point message: $(cat bad.err)"
 [ ! -d badpoint.sweep ] && ok "bad point: nothing created" || bad "bad point: output folder created"
+
+# 5. --reuse: a second sweep sharing two of six.sweep's points copies them (the same bits, a
+#    log that says so) and runs only its new point.
+cat > overlap.toml <<'TOML'
+[sweep]
+replicas = 1
+[sweep.grid]
+"shear.rate" = [1e-1, 3e-2, 3e-3]
+[sweep.zip]
+"system.phi" = [0.6]
+"integrator.dt" = [0.1]
+[scene.system]
+N = 64
+phi = 0.62
+[scene.ensemble]
+kind = "constant_volume"
+[scene.shear]
+rate = 1e-2
+[scene.integrator]
+kind = "euler"
+dt = 0.1
+[scene.run]
+t_eq = 10.0
+t_av = 40.0
+sample_every = 0.4
+TOML
+if "$jamflow" sweep overlap.toml --reuse six.sweep -j 1 -q 2> overlap.err; then
+  ok "sweep with --reuse"
+else
+  bad "sweep with --reuse: $(cat overlap.err)"
+fi
+reused=$(grep -l "^reused: " overlap.sweep/points/*/r0.log 2>/dev/null | wc -l)
+[ "$reused" -eq 2 ] && ok "--reuse copied the 2 shared points" || bad "--reuse copied $reused points"
+same=0
+for f in overlap.sweep/points/*/r0.h5; do
+  other="six.sweep/points/$(basename "$(dirname "$f")")/r0.h5"
+  [ -f "$other" ] && cmp -s "$f" "$other" && same=$((same + 1))
+done
+[ "$same" -eq 2 ] && ok "--reuse: the shared points are the same bytes" ||
+  bad "--reuse: $same of 2 shared points identical"
+new_run=$(ls -d overlap.sweep/points/*rate-0.003*/r0.h5 2>/dev/null | wc -l)
+[ "$new_run" -eq 1 ] && ! grep -q "^reused: " overlap.sweep/points/*rate-0.003*/r0.log &&
+  ok "--reuse: the new point ran" || bad "--reuse: the new point did not run"
 
 echo "sweep_test: $passed passed, $failed failed"
 [ "$failed" -eq 0 ]
