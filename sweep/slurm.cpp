@@ -16,32 +16,21 @@ void check_slurm_time(const std::string& time) {
                       "': allowed a Slurm time limit such as 24:00:00, 1-12:00:00 or 90");
 }
 
-namespace {
-
-// Single-quoted for bash.
-std::string quoted(const std::string& s) {
+std::string shell_quoted(const std::string& s) {
   std::string out = "'";
   for (char c : s)
     out += c == '\'' ? std::string("'\\''") : std::string(1, c);
   return out + "'";
 }
 
-}  // namespace
-
-std::string slurm_script(const Plan& plan, const SlurmOptions& o) {
-  const std::size_t tasks = plan.tasks().size();
-  const int size =
-      o.array_size > 0 ? o.array_size : static_cast<int>(std::min<std::size_t>(tasks, 1000));
-  const std::string out = fs::absolute(plan.out_dir).lexically_normal().string();
-  const std::string sweep = fs::absolute(plan.path).lexically_normal().string();
-  const std::string cwd = fs::current_path().string();
+std::string batch_script(const BatchJob& job, const SlurmOptions& o) {
   std::string s;
   s += "#!/bin/bash\n";
-  s += "# Written by `jamflow sweep --slurm` for " + sweep + ".\n";
-  s += "# Submit with: sbatch " + out + "/sweep.sbatch   (resubmitting it resumes the sweep)\n";
-  s += "#SBATCH --job-name=jamflow-" + plan.name + "\n";
-  s += "#SBATCH --array=0-" + std::to_string(std::max(size, 1) - 1) + "\n";
-  s += "#SBATCH --ntasks=1\n";
+  s += job.comment;
+  s += "#SBATCH --job-name=" + job.name + "\n";
+  if (!job.array.empty())
+    s += "#SBATCH --array=" + job.array + "\n";
+  s += "#SBATCH --ntasks=" + std::to_string(job.ntasks) + "\n";
   s += "#SBATCH --cpus-per-task=" + std::to_string(o.cpus_per_task) + "\n";
   s += "#SBATCH --time=" + o.time + "\n";
   if (!o.partition.empty())
@@ -50,26 +39,43 @@ std::string slurm_script(const Plan& plan, const SlurmOptions& o) {
   s += "#SBATCH --signal=B:TERM@" + std::to_string(o.signal_seconds) + "\n";
   s += "#SBATCH --requeue\n";
   s += "#SBATCH --open-mode=append\n";
-  s += "#SBATCH --output=" + out + "/slurm/%A_%a.out\n";
-  s += "#SBATCH --chdir=" + cwd + "\n";
+  s += "#SBATCH --output=" + job.output + "\n";
+  s += "#SBATCH --chdir=" + fs::current_path().string() + "\n";
   s += "\n";
-  s += "exe=" + quoted(o.exe) + "\n";
-  s += "\"$exe\" sweep " + quoted(sweep) + " --out " + quoted(out) +
-       " --task \"$SLURM_ARRAY_TASK_ID\" --array-size " + std::to_string(std::max(size, 1)) +
-       " -j \"${SLURM_CPUS_PER_TASK:-1}\" &\n";
+  s += "exe=" + shell_quoted(o.exe) + "\n";
+  s += job.command + " &\n";
   s += "pid=$!\n";
   s += "# Slurm's TERM reaches this shell only: pass it on, so the running points checkpoint.\n";
   s += "trap 'kill -TERM $pid 2>/dev/null' TERM\n";
   s += "wait $pid; status=$?\n";
   s += "while kill -0 $pid 2>/dev/null; do wait $pid; status=$?; done\n";
   s += "if [ \"$status\" -ge 128 ]; then\n";
-  s += "  # Stopped before its share was done (time limit, scancel -s TERM): run again later,\n";
+  s += "  # Stopped before its work was done (time limit, scancel -s TERM): run again later,\n";
   s += "  # resuming from the checkpoints.\n";
-  s += "  echo \"jamflow sweep stopped (status $status); requeueing $SLURM_JOB_ID\"\n";
+  s += "  echo \"jamflow stopped (status $status); requeueing $SLURM_JOB_ID\"\n";
   s += "  scontrol requeue \"$SLURM_JOB_ID\"\n";
   s += "fi\n";
   s += "exit $status\n";
   return s;
+}
+
+std::string slurm_script(const Plan& plan, const SlurmOptions& o) {
+  const std::size_t tasks = plan.tasks().size();
+  const int size =
+      o.array_size > 0 ? o.array_size : static_cast<int>(std::min<std::size_t>(tasks, 1000));
+  const std::string out = fs::absolute(plan.out_dir).lexically_normal().string();
+  const std::string sweep = fs::absolute(plan.path).lexically_normal().string();
+  BatchJob job;
+  job.name = "jamflow-" + plan.name;
+  job.comment = "# Written by `jamflow sweep --slurm` for " + sweep + ".\n" +
+                "# Submit with: sbatch " + out +
+                "/sweep.sbatch   (resubmitting it resumes the sweep)\n";
+  job.array = "0-" + std::to_string(std::max(size, 1) - 1);
+  job.output = out + "/slurm/%A_%a.out";
+  job.command = "\"$exe\" sweep " + shell_quoted(sweep) + " --out " + shell_quoted(out) +
+                " --task \"$SLURM_ARRAY_TASK_ID\" --array-size " +
+                std::to_string(std::max(size, 1)) + " -j \"${SLURM_CPUS_PER_TASK:-1}\"";
+  return batch_script(job, o);
 }
 
 }  // namespace jamflow::sweep

@@ -22,6 +22,23 @@ struct SlurmOptions {
 // The script's text. Paths in it are absolute.
 std::string slurm_script(const Plan& plan, const SlurmOptions& options);
 
+// One batch job (a sweep's array, or `jamflow study paper` on MPI ranks): the #SBATCH header,
+// then `command` in the background ($exe is options.exe). Slurm's TERM before the time limit
+// is passed on to it, and a command stopped by a signal requeues the job, which resumes from
+// the checkpoints.
+struct BatchJob {
+  std::string name;
+  std::string comment;  // lines after #!/bin/bash, each "# ...\n"
+  std::string array;    // "0-9", or empty for a single job
+  int ntasks = 1;
+  std::string output;   // --output pattern (absolute)
+  std::string command;  // shell text, already quoted
+};
+std::string batch_script(const BatchJob& job, const SlurmOptions& options);
+
+// Single-quoted for bash.
+std::string shell_quoted(const std::string& s);
+
 // Checks "[D-]HH:MM:SS" (or MM:SS or minutes) as sbatch --time takes it; a ConfigError names
 // --time otherwise.
 void check_slurm_time(const std::string& time);
