@@ -66,6 +66,8 @@ int study_main(const std::vector<std::string>& args) {
       ->check(CLI::Range(1, 100000));
   app.add_option("--partition", opt.slurm_partition, "Slurm partition (--slurm)");
   app.add_flag("--no-plots", opt.no_plots, "skip PNG plots");
+  app.add_option("--only", opt.only, "study paper: run only these studies (in its order)")
+      ->delimiter(',');
   std::vector<std::string> rev(args.rbegin(), args.rend());
   try {
     app.parse(rev);
@@ -79,6 +81,8 @@ int study_main(const std::vector<std::string>& args) {
                           ": --dry-run, --slurm and --jobs are for studies on the sweep engine; "
                           "allowed for " +
                           sweep_studies_list());
+      if (!opt.only.empty() && name != "paper")
+        throw ConfigError("jamflow study " + name + " --only; allowed with study paper only");
       if (opt.out_dir.empty())
         opt.out_dir = "out/" + name + "-" + opt.preset;
       return s.run(opt);

@@ -2,6 +2,7 @@
 #pragma once
 #include <functional>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,17 @@ struct StudyOptions {
   std::string slurm_time = "24:00:00";
   int slurm_array_size = 0;
   std::string slurm_partition;
+  // Folders of earlier runs whose finished replicas of the very same scene are reused
+  // (sweep/reuse.hpp); `study paper` passes its whole output folder.
+  std::vector<std::string> reuse;
+  // --dry-run of several studies (`study paper`): each sweep adds the estimate of the tasks
+  // whose scene no earlier sweep had (those would be reused, not run).
+  struct DryRunTally {
+    double cpu_hours = 0.0;
+    std::set<std::string> scenes;
+  };
+  DryRunTally* tally = nullptr;
+  std::vector<std::string> only;  // `study paper --only`: these parts, in its order
 };
 
 using StudyFn = std::function<int(const StudyOptions&)>;

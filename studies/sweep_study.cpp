@@ -22,6 +22,14 @@ std::optional<int> run_sweep_study(const std::string& study, const std::string& 
   out.plan.name = study;  // for the progress line
   const sweep::CostEstimate cost = sweep::estimate_cost(out.plan);
   out.cpu_hours_estimate = cost.cpu_hours;
+  if (options.dry_run && options.tally && cost.particle_steps > 0.0) {
+    double fresh = 0.0;
+    for (const auto& t : out.plan.tasks()) {
+      if (options.tally->scenes.insert(out.plan.task_scene(t).text()).second)
+        fresh += t.cost;
+    }
+    options.tally->cpu_hours += cost.cpu_hours * fresh / cost.particle_steps;
+  }
   if (options.dry_run) {
     std::printf(
         "%s --preset %s: %zu points x %lld replicas = %zu runs, %.3g particle force "
@@ -48,6 +56,7 @@ std::optional<int> run_sweep_study(const std::string& study, const std::string& 
   sweep::EngineOptions eo;
   eo.jobs = options.jobs;
   eo.quiet = options.quiet;
+  eo.reuse = options.reuse;
   const int status = sweep::run_plan(out.plan, eo);
   if (status >= 128)
     return status;  // stopped: the checkpoints continue on the next run

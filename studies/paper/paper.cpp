@@ -1,0 +1,289 @@
+// `jamflow study paper`: every study of the toolkit in dependency order, on one sweep engine,
+// into OUT/<study>/, and one report (OUT/report.md) that puts the seed's figures 1-9 and its
+// Table 2 beside jamflow's, with each part's verdicts and cost. Studies that share state points
+// run them once (sweep/reuse.hpp). See studies/README.md.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "analysis/json.hpp"
+#include "lib/error.hpp"
+#include "studies/common.hpp"
+#include "studies/study.hpp"
+#include "sweep/engine.hpp"
+#include "sweep/mpi.hpp"
+#include "sweep/slurm.hpp"
+
+namespace jamflow::studies {
+namespace {
+namespace fs = std::filesystem;
+
+struct Part {
+  const char* study;
+  const char* seed;  // what of the seed it reproduces
+};
+
+// Dependency order: the methodology studies establish the integrators, steps and alpha_r that
+// the science studies use (their choices, with the evidence, are in the studies' points), then
+// the hard-sphere limit, its size dependence, the soft rheology and the Olsson-Teitel
+// comparison, which uses the soft rheology.
+const Part kParts[] = {
+    {"timestep", "dt and integrator (SPEC §4; the seed's Sec. II)"},
+    {"ensemble", "Fig. 1: constant pressure against constant volume"},
+    {"softness", "the choice of alpha_r (the seed's Sec. II)"},
+    {"stability", "stability on stiff cases (SPEC §4)"},
+    {"hard-sphere", "Figs. 2, 3, 4, 7: mu(J), phi(J), the P -> 0 envelope, the viscosity"},
+    {"finite-size", "Figs. 5, 6 and Table 2: the large-N limit and nu"},
+    {"soft-rheology", "Fig. 8: the soft granular rheology, x and y"},
+    {"olsson-teitel", "Fig. 9: the Olsson-Teitel collapse against the soft rheology"},
+};
+
+std::string read_file(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream os;
+  os << in.rdbuf();
+  return os.str();
+}
+
+// The opening of a study's report: the lines between its title and its first section.
+std::string headline(const fs::path& report) {
+  std::istringstream in(read_file(report));
+  std::string line, out;
+  bool titled = false;
+  while (std::getline(in, line)) {
+    if (line.rfind("# ", 0) == 0 && !titled) {
+      titled = true;
+      continue;
+    }
+    if (line.rfind("## ", 0) == 0)
+      break;
+    if (titled)
+      out += line + "\n";
+  }
+  while (!out.empty() && (out.back() == '\n' || out.back() == ' '))
+    out.pop_back();
+  const std::size_t first = out.find_first_not_of("\n ");
+  return first == std::string::npos ? std::string() : out.substr(first);
+}
+
+// CPU hours of a study's points: the wall_seconds column (each replica on one thread, summed
+// over replicas) of every collected table under its folder.
+double points_cpu_hours(const fs::path& dir) {
+  double seconds = 0.0;
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(dir, ec);
+       !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+    if (it->path().filename() != "table.csv")
+      continue;
+    std::istringstream in(read_file(it->path()));
+    std::string header, line;
+    std::getline(in, header);
+    int column = -1, c = 0;
+    std::stringstream hs(header);
+    for (std::string cell; std::getline(hs, cell, ','); ++c) {
+      if (cell == "wall_seconds")
+        column = c;
+    }
+    if (column < 0)
+      continue;
+    while (std::getline(in, line)) {
+      std::stringstream ls(line);
+      std::string cell;
+      for (int k = 0; k <= column && std::getline(ls, cell, ','); ++k) {
+      }
+      if (!cell.empty())
+        seconds += std::strtod(cell.c_str(), nullptr);
+    }
+  }
+  return seconds / 3600.0;
+}
+
+// Table 2 beside jamflow's N -> infinity values (finite-size/analysis.json).
+std::string table2_section(const fs::path& analysis) {
+  struct Seed {
+    const char* name;
+    double inf;
+  };
+  const Seed seeds[] = {{"phi_J", 0.6474}, {"b_phi", 0.391}, {"C_phi", 0.0683},
+                        {"mu_J", 0.108},   {"b_mu", 0.346},  {"C_mu", 0.347}};
+  std::ostringstream md;
+  md << "\n## Table 2 (N -> infinity)\n\n";
+  if (!fs::exists(analysis)) {
+    md << "No `finite-size/analysis.json`: the finite-size study did not get to its analysis.\n";
+    return md.str();
+  }
+  analysis::Json j;
+  try {
+    j = analysis::Json::parse(read_file(analysis));
+  } catch (const std::exception& e) {
+    md << "`finite-size/analysis.json` cannot be read: " << e.what() << "\n";
+    return md.str();
+  }
+  const auto& ex = j.at("extrapolated");
+  if (ex.contains("skipped")) {
+    md << "Not extrapolated: " << ex.at("skipped").as_string()
+       << " (finite-size/report.md says why).\n";
+    return md.str();
+  }
+  std::vector<std::vector<std::string>> rows;
+  for (const Seed& s : seeds) {
+    if (!ex.contains(s.name))
+      continue;
+    const auto& e = ex.at(s.name);
+    const std::string status = e.contains("status") ? e.at("status").as_string() : "";
+    if (e.contains("inf") && e.at("inf").contains("value")) {
+      const double v = e.at("inf").at("value").as_number(),
+                   err = e.at("inf").at("error").as_number();
+      char z[64];
+      std::snprintf(z, sizeof z, "%+.1f sigma", (v - s.inf) / err);
+      rows.push_back({s.name, pm(v, err), num(s.inf, 4), err > 0.0 ? z : "n/a", status});
+    } else {
+      rows.push_back({s.name, "-", num(s.inf, 4), "n/a", status});
+    }
+  }
+  md << markdown_table({"parameter", "jamflow", "seed", "difference", "fit"}, rows);
+  return md.str();
+}
+
+int run(const StudyOptions& options) {
+  const fs::path out = options.out_dir;
+  if (sweep::mpi_launched())
+    throw ConfigError(
+        "jamflow study paper under an MPI launcher; allowed on one machine (-j) or as one "
+        "Slurm job (--slurm): the studies' later stages start from earlier stages' results, "
+        "which the ranks of one launch cannot follow");
+  if (options.slurm) {
+    ensure_dir(out.string());
+    fs::create_directories(out / "slurm");
+    sweep::SlurmOptions so;
+    so.time = options.slurm_time;
+    so.partition = options.slurm_partition;
+    so.cpus_per_task = options.jobs > 0 ? options.jobs : 32;
+    so.exe = sweep::jamflow_exe();
+    sweep::check_slurm_time(so.time);
+    const std::string dir = fs::absolute(out).lexically_normal().string();
+    sweep::BatchJob job;
+    job.name = "jamflow-paper";
+    job.comment = "# Written by `jamflow study paper --slurm`: every study, preset " +
+                  options.preset + ", on one node.\n# Submit with: sbatch " + dir +
+                  "/paper.sbatch   (resubmitting it resumes where it stopped)\n";
+    job.output = dir + "/slurm/%j.out";
+    job.command = "\"$exe\" study paper --preset " + sweep::shell_quoted(options.preset) +
+                  " --out " + sweep::shell_quoted(dir) + " -j \"${SLURM_CPUS_PER_TASK:-1}\"";
+    for (const auto& name : options.only)
+      job.command += " --only " + sweep::shell_quoted(name);
+    const std::string script = (out / "paper.sbatch").string();
+    write_text(script, sweep::batch_script(job, so));
+    std::printf("%s\nsubmit it with: sbatch %s\n", script.c_str(), script.c_str());
+    return 0;
+  }
+
+  StudyOptions::DryRunTally tally;
+  std::vector<std::vector<std::string>> rows;
+  std::ostringstream headlines;
+  int worst = 0;
+  for (const auto& name : options.only) {
+    bool known = false;
+    for (const Part& part : kParts)
+      known = known || name == part.study;
+    if (!known)
+      throw ConfigError("jamflow study paper --only " + name +
+                        "; allowed timestep, ensemble, softness, stability, hard-sphere, "
+                        "finite-size, soft-rheology, olsson-teitel");
+  }
+  for (const Part& part : kParts) {
+    if (!options.only.empty() &&
+        std::find(options.only.begin(), options.only.end(), part.study) == options.only.end())
+      continue;
+    const StudyInfo* info = nullptr;
+    const auto all = registry();
+    for (const auto& s : all) {
+      if (s.name == part.study)
+        info = &s;
+    }
+    const fs::path dir = out / part.study;
+    if (!info) {
+      rows.push_back({part.seed, part.study, "not in this build", "-", "-", "-"});
+      worst = std::max(worst, 1);
+      continue;
+    }
+    StudyOptions sub = options;
+    sub.out_dir = dir.string();
+    sub.reuse = {out.string()};
+    sub.tally = &tally;
+    if (!info->on_sweep_engine) {
+      sub.jobs = 0;  // runs its points in-process
+      if (options.dry_run) {
+        std::printf("%s --preset %s: runs in-process, no estimate before it runs\n", part.study,
+                    options.preset.c_str());
+        rows.push_back({part.seed, part.study, "no estimate (in-process)", "-", "-", "-"});
+        continue;
+      }
+    }
+    if (!options.quiet && !options.dry_run)
+      std::printf("study paper: %s (%s)\n", part.study, part.seed);
+    const auto start = std::chrono::steady_clock::now();
+    int status = 0;
+    std::string what;
+    try {
+      status = info->run(sub);
+    } catch (const std::exception& e) {
+      status = 2;
+      what = e.what();
+      std::fprintf(stderr, "study paper: %s: %s\n", part.study, e.what());
+    }
+    const double wall =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (status >= 128)
+      return status;  // stopped by a signal: the checkpoints continue on the next run
+    worst = std::max(worst, status);
+    if (options.dry_run)
+      continue;
+    const std::string verdict = status == 0   ? "complete"
+                                : status == 1 ? "complete, with parts not computed (exit 1)"
+                                              : "failed (exit " + std::to_string(status) + ")";
+    const fs::path report = dir / "report.md";
+    rows.push_back({part.seed, part.study, what.empty() ? verdict : verdict + ": " + what,
+                    num(wall / 60.0, 3) + " min", num(points_cpu_hours(dir), 3),
+                    fs::exists(report) ? "[" + std::string(part.study) + "/report.md](" +
+                                             std::string(part.study) + "/report.md)"
+                                       : "-"});
+    if (fs::exists(report))
+      headlines << "\n### " << part.study << "\n\n" << headline(report) << "\n";
+  }
+  if (options.dry_run) {
+    std::printf(
+        "study paper --preset %s: %zu distinct runs, about %.3g CPU-hours for the "
+        "studies on the sweep engine (40 ns per particle force evaluation; runs that "
+        "studies share are counted once)\n",
+        options.preset.c_str(), tally.scenes.size(), tally.cpu_hours);
+    return worst;
+  }
+  std::ostringstream md;
+  md << "# jamflow study paper, preset `" << options.preset << "`\n\n"
+     << "Every study of jamflow, run in dependency order into this folder, each with its own "
+        "report, against the seed (Kawasaki, Coslovich, Ikeda and Berthier, PRE 91, 012203, "
+        "2015). Points that two studies share were run once (their logs say `reused`). CPU "
+        "hours are those of each study's collected points (one thread per replica; a reused "
+        "point counts in every study that uses it); wall time is this invocation's (points "
+        "finished before are not rerun).\n\n"
+     << markdown_table({"the seed's", "study", "status", "wall time", "CPU hours", "report"}, rows);
+  md << table2_section(out / "finite-size" / "analysis.json");
+  md << "\n## Each study's opening\n" << headlines.str();
+  write_text((out / "report.md").string(), md.str());
+  if (!options.quiet)
+    std::printf("study paper: %s\n", (out / "report.md").c_str());
+  return worst;
+}
+
+const Registrar reg{{"paper",
+                     "every study in dependency order on one sweep engine, shared points run "
+                     "once, one report beside the seed's Figs. 1-9 and Table 2",
+                     run, true}};
+
+}  // namespace
+}  // namespace jamflow::studies

@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# `jamflow study paper` from the command line, without running the studies' points:
+#  - --dry-run counts the runs that studies share once (hard-sphere and finite-size share the
+#    N = 256 points of their quick presets), so its total is below the sum of the parts;
+#  - --slurm writes one batch script that runs the whole of it and resubmits itself;
+#  - --only with an unknown study, --only on another study, and an MPI launch are one line each,
+#    exit 2, before anything runs.
+# (The end-to-end run with reused points is in sweep_studies_test.sh.)
+# usage: paper_test.sh JAMFLOW_BINARY
+set -uo pipefail
+jamflow="$(realpath "$1")"
+work="$(mktemp -d /tmp/jamflow-paper-test.XXXXXX)"
+trap 'rm -rf "$work"' EXIT
+cd "$work"
+passed=0
+failed=0
+ok() { echo "ok: $*"; passed=$((passed + 1)); }
+bad() { echo "FAILED: $*"; failed=$((failed + 1)); }
+
+runs_of() { sed -n 's/.* = \([0-9]*\) runs,.*/\1/p'; }
+hs=$("$jamflow" study hard-sphere --preset quick --dry-run --out d1 | runs_of)
+fs=$("$jamflow" study finite-size --preset quick --dry-run --out d2 | runs_of)
+line=$("$jamflow" study paper --preset quick --dry-run --out dp --only hard-sphere,finite-size)
+total=$(echo "$line" | sed -n 's/.*: \([0-9]*\) distinct runs.*/\1/p')
+if [ -n "$hs" ] && [ -n "$fs" ] && [ -n "$total" ] && [ "$total" -lt $((hs + fs)) ] &&
+  [ "$total" -ge "$fs" ]; then
+  ok "dry-run counts shared runs once: $total distinct of $hs + $fs"
+else
+  bad "dry-run: hard-sphere $hs, finite-size $fs, paper '$line'"
+fi
+[ ! -d dp/hard-sphere/runs/points ] && ok "dry-run runs nothing" || bad "dry-run created points"
+
+"$jamflow" study paper --preset paper --slurm --out sl -j 8 > slurm.out 2> slurm.err
+status=$?
+if [ "$status" -eq 0 ] && [ -s sl/paper.sbatch ] && bash -n sl/paper.sbatch &&
+  grep -q "study paper --preset 'paper'" sl/paper.sbatch &&
+  grep -q "^#SBATCH --cpus-per-task=8" sl/paper.sbatch &&
+  grep -q "^#SBATCH --signal=B:TERM@" sl/paper.sbatch && grep -q "scontrol requeue" sl/paper.sbatch
+then
+  ok "--slurm writes one batch script for the whole of it"
+else
+  bad "--slurm: exit $status: $(cat slurm.err)"
+fi
+
+one_line_exit_2() {  # description, command...
+  local what="$1"
+  shift
+  "$@" > /dev/null 2> err.txt
+  local status=$?
+  if [ "$status" -eq 2 ] && [ "$(wc -l < err.txt)" -eq 1 ]; then ok "$what: one line, exit 2"; else
+    bad "$what: exit $status: $(cat err.txt)"; fi
+}
+one_line_exit_2 "--only with an unknown study" \
+  "$jamflow" study paper --preset quick --only hard-sphere,nonesuch --out x1
+one_line_exit_2 "--only on another study" "$jamflow" study hard-sphere --only finite-size --out x2
+OMPI_COMM_WORLD_SIZE=2 OMPI_COMM_WORLD_RANK=0 one_line_exit_2 "an MPI launch" \
+  "$jamflow" study paper --preset quick --out x3
+[ ! -e x1 ] && [ ! -e x2 ] && [ ! -e x3 ] && ok "nothing written for bad input" ||
+  bad "bad input wrote $(ls -d x1 x2 x3 2>/dev/null)"
+
+echo "paper_test: $passed passed, $failed failed"
+[ "$failed" -eq 0 ]
