@@ -294,7 +294,7 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
     results.push_back(std::move(cr));
   }
   std::vector<DiagnosedRun> done;
-  if (const auto status = run_stage("stability", "runs", requests, options, done, true))
+  if (const auto status = run_stage("stability", "scan", requests, options, done, true))
     return *status;
   for (std::size_t q = 0; q < done.size(); ++q)
     results[index[q].first].runs[index[q].second] = std::move(done[q]);

@@ -407,7 +407,7 @@ int run_timestep_preset(const TimestepPreset& preset, const StudyOptions& option
   }
   // The sweep engine runs the longest first, so that the cores finish together.
   std::vector<DiagnosedRun> done;
-  if (const auto status = run_stage("timestep", "runs", requests, options, done, true))
+  if (const auto status = run_stage("timestep", "settings", requests, options, done, true))
     return *status;
   for (std::size_t q = 0; q < done.size(); ++q) {
     const auto& [pi, k] = index[q];
