@@ -86,6 +86,10 @@ std::optional<int> run_sweep_study(const std::string& study, const std::string& 
       }
     }
   }
+  // Under mpirun, rank 0 alone analyses: the other ranks stop after the last stage, also when
+  // it had finished before this launch.
+  if (stage.last && sweep::mpi_launched() && sweep::launched_rank() != 0)
+    return 0;
   if (!stage.collect_table)
     return std::nullopt;
   out.table = (dir / "table.csv").string();
