@@ -3,6 +3,7 @@
 // from exactly the bits the interrupted one held.
 #include "driver/checkpoint.hpp"
 
+#include <algorithm>
 #include <string>
 
 #include "lib/error.hpp"
@@ -223,6 +224,68 @@ std::vector<ReplicaResult> read_checkpoint(const H5Reader& r) {
     out.push_back(std::move(res));
   }
   return out;
+}
+
+namespace {
+
+// Attributes of a /summary group that describe the run rather than summarize it (write_replica
+// in run.cpp, and the ensembles' describe()): they are in the scene, not summary values.
+bool summary_value(const std::string& name) {
+  for (const char* described :
+       {"N", "alpha", "wall_seconds", "shear_rate", "imposed_pressure", "xi_V"})
+    if (name == described)
+      return false;
+  return name.rfind("integrator", 0) != 0;
+}
+
+Summary read_summary(const H5Reader& r, const std::string& g) {
+  Summary s;
+  if (!r.exists(g))
+    return s;  // a replica stopped before its summary (the budget)
+  for (const auto& name : r.attr_names(g)) {
+    if (name.rfind("verdict_", 0) == 0) {
+      s.verdicts[name.substr(8)] = r.attr_string(g, name);
+    } else if (name == "run_length" || name == "t_eq_method") {
+      s.texts[name] = r.attr_string(g, name);
+    } else if (summary_value(name)) {
+      try {
+        s.values[name] = r.attr_double(g, name);
+      } catch (const std::exception&) {
+        // text attributes (ensemble, status) and integers (N) are not summary values
+      }
+    }
+  }
+  return s;
+}
+
+}  // namespace
+
+RunFile read_run_file(const std::string& path, bool everything) {
+  const H5Reader r(path);
+  RunFile f;
+  f.scene = r.has_attr("/", "scene") ? r.attr_string("/", "scene") : "";
+  f.status = r.has_attr("/", "status") ? r.attr_string("/", "status") : "";
+  const std::int64_t count = r.has_attr("/", "replicas") ? r.attr_int("/", "replicas") : 1;
+  if (everything) {
+    f.replicas = read_checkpoint(r);
+  } else {
+    f.replicas.resize(static_cast<std::size_t>(std::max<std::int64_t>(count, 0)));
+  }
+  if (static_cast<std::int64_t>(f.replicas.size()) != count)
+    throw IoError(
+        "'" + path + "': " + std::to_string(f.replicas.size()) +
+        " replicas in /checkpoint, but the root attribute replicas = " + std::to_string(count));
+  for (std::size_t k = 0; k < f.replicas.size(); ++k) {
+    const std::string g = count > 1 ? "/replicas/" + std::to_string(k) + "/summary" : "/summary";
+    ReplicaResult& res = f.replicas[k];
+    res.summary = read_summary(r, g);
+    if (!everything) {
+      res.status = r.has_attr(g, "status") ? r.attr_string(g, "status") : f.status;
+      if (r.has_attr(g, "wall_seconds"))
+        res.wall_seconds = r.attr_double(g, "wall_seconds");
+    }
+  }
+  return f;
 }
 
 }  // namespace jamflow

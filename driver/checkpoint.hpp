@@ -32,4 +32,16 @@ void write_checkpoint(H5Writer& w, const std::vector<ReplicaResult>& replicas);
 // Reads them back; an IoError names what is missing or inconsistent.
 std::vector<ReplicaResult> read_checkpoint(const H5Reader& r);
 
+// A run file read back (what `jamflow run` and every sweep point write): the one reader of run
+// files for the sweep's collect and the studies. Each replica has its own summary (values,
+// verdicts, texts; from /summary, or /replicas/<k>/summary with several) and status; with
+// `everything`, also what /checkpoint holds (series, final state, integrator counters, wall
+// time). An IoError names what is missing.
+struct RunFile {
+  std::string scene;   // the root attribute "scene": the canonical scene text
+  std::string status;  // the root attribute "status"
+  std::vector<ReplicaResult> replicas;
+};
+RunFile read_run_file(const std::string& path, bool everything = true);
+
 }  // namespace jamflow

@@ -84,7 +84,8 @@ std::string iso_now() {
 constexpr double kMaxSteps = 1e12;
 constexpr double kMaxParticleSteps = 1e15;  // about 230 days at 20 ns per particle-step
 constexpr double kMaxSamples = 1e9;
-constexpr double kBytesPerSample = 3.0 * sizeof(Sample);  // the series, its copies at output
+constexpr std::int64_t kMaxForceEvaluations = 1000000000000000;  // 1e15
+constexpr double kBytesPerSample = 3.0 * sizeof(Sample);         // the series, its copies at output
 // Measured: the peak resident size grows by 740 bytes per particle from N = 1e5 to 4e5 (lists,
 // checkpoint copies and output included); rounded up for margin.
 constexpr double kBytesPerParticle = 1000.0;
@@ -192,6 +193,7 @@ RunSpec parse_run_spec(const Scene& scene) {
   // One thread unless asked: runs side by side (studies, sweeps, several users) then never
   // compete for cores; see README "Threads".
   spec.threads = static_cast<int>(run.integer("threads", 1, 0, 1024));
+  spec.max_force_evaluations = run.integer("max_force_evaluations", 0, 0, kMaxForceEvaluations);
   const bool round_sampling = run.flag("round_sample_every", false);
   if (spec.auto_av) {
     spec.target_error = run.number("target_error", Range{0.0, 1.0, false, false});
@@ -295,6 +297,14 @@ std::vector<double> Series::column(double Sample::*field) const {
   for (const auto& s : samples)
     v.push_back(s.*field);
   return v;
+}
+
+bool stopped_by_budget(const std::string& status) {
+  return status.rfind("budget", 0) == 0;
+}
+
+bool finished_status(const std::string& status) {
+  return status == "complete" || stopped_by_budget(status);
 }
 
 bool Summary::failed() const {
@@ -821,6 +831,15 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
         k_max = sample_index(res.horizon, spec.sample_every);
         progress.set_total(res.horizon);
       }
+      // The budget, checked before each sample (a count, so the same sample wherever it runs).
+      if (spec.max_force_evaluations > 0 &&
+          model.force_evaluations() >= static_cast<std::size_t>(spec.max_force_evaluations)) {
+        res.status = "budget: stopped at t = " + fmt(model.state().time - t_start) + " after " +
+                     std::to_string(model.force_evaluations()) +
+                     " force evaluations ([run] max_force_evaluations = " +
+                     std::to_string(spec.max_force_evaluations) + ")";
+        break;
+      }
       const double t_rel = double(k) * spec.sample_every;
       const double t_end = t_start + t_rel;
       integ->advance(model, ens, t_end);
@@ -1012,7 +1031,7 @@ bool write_run_file(const RunSpec& spec, const std::vector<ReplicaResult>& repli
                     const std::string& path) {
   bool complete = !replicas.empty();
   for (const auto& r : replicas)
-    complete = complete && r.status == "complete";
+    complete = complete && finished_status(r.status);
   H5Writer w(complete ? path : path + ".part", ".tmp");
   write_run_layout(w, spec, replicas);
   w.commit();
@@ -1150,7 +1169,10 @@ int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOp
     const ReplicaResult& last = results[k];
     const bool ok = last.status == "complete";
     write_xyz_file(o.label + (ok ? ".final.xyz" : ".last.xyz"), last.final_state);
-    if (!ok) {
+    if (stopped_by_budget(last.status)) {
+      // Finished without a summary: the file is final, the next replica goes on.
+      std::fprintf(stderr, "jamflow: %s: %s\n", o.label.c_str(), last.status.c_str());
+    } else if (!ok) {
       write_part(k, last);
       std::fprintf(stderr, "jamflow: %s; data kept in %s.part (continue it with --resume)\n",
                    last.status.c_str(), spec.file.c_str());
@@ -1169,7 +1191,14 @@ int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOp
   } catch (const std::exception& e) {
     write_error = e.what();
   }
-  const bool failed_verdict = print_summary(spec, results);
+  bool budget = false;
+  for (const auto& r : results)
+    budget = budget || stopped_by_budget(r.status);
+  // A replica stopped by the budget has no summary to print: the file says where it stopped.
+  const bool failed_verdict = !budget && print_summary(spec, results);
+  if (budget)
+    std::printf("jamflow run: stopped by [run] max_force_evaluations (no summary) -> %s\n",
+                spec.file.c_str());
   if (!write_error.empty()) {
     std::fprintf(stderr, "jamflow: error: %s; the data is kept in %s.part\n", write_error.c_str(),
                  spec.file.c_str());

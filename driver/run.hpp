@@ -49,6 +49,10 @@ struct RunSpec {
   std::int64_t blocks = 20;
   std::int64_t replicas = 1;
   int threads = 0;
+  // Budget: a replica stops at the first sample at which its force evaluations (the model's
+  // count, one per force pass) reach this; 0 = none (the default). Counted, not timed, so a budget
+  // cuts a run at the same sample wherever it runs. See stopped_by_budget().
+  std::int64_t max_force_evaluations = 0;
   // [output]
   std::string file = "jamflow.h5";
   double trajectory_every = 0.0;    // 0: no trajectory file
@@ -115,6 +119,12 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
 // are collected with the replica index.
 Summary combine_replicas(const std::vector<Summary>& summaries);
 
+// The status of a replica stopped by [run] max_force_evaluations starts with "budget": such a
+// replica is finished (its file is final, not a checkpoint to continue) but has no summary.
+bool stopped_by_budget(const std::string& status);
+// "complete" or stopped by the budget: nothing more will be computed for it.
+bool finished_status(const std::string& status);
+
 struct ReplicaResult {
   Series series;
   State final_state;
@@ -122,8 +132,8 @@ struct ReplicaResult {
   std::vector<std::pair<std::string, double>> integrator_stats;
   double wall_seconds = 0.0;
   std::uint64_t seed = 0;
-  // "complete", "running" (a checkpoint of a run that goes on), "interrupted at t = ..." or
-  // "failed at t = ...".
+  // "complete", "running" (a checkpoint of a run that goes on), "interrupted at t = ...",
+  // "failed at t = ..." or "budget: stopped at t = ..." ([run] max_force_evaluations).
   std::string status = "complete";
   // Provenance: the force backend, the instruction-set target it ran on, and the thread count.
   std::string kernel, kernel_target;
@@ -180,7 +190,8 @@ State initial_state(const RunSpec& spec, std::uint64_t seed);
 void write_run_layout(H5Writer& w, const RunSpec& spec, const std::vector<ReplicaResult>& replicas);
 
 // write_run_layout() into `path` (through a temporary file renamed when complete). Returns
-// false if any replica is not complete: then the file is written as <path>.part instead.
+// false if any replica is not finished (finished_status()): then the file is written as
+// <path>.part instead.
 bool write_run_file(const RunSpec& spec, const std::vector<ReplicaResult>& replicas,
                     const std::string& path);
 

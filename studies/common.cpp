@@ -35,14 +35,6 @@ RunSpec spec_from_toml(const std::string& toml, const IntegratorSettings& integr
   return parse_run_spec(scene, integrator);
 }
 
-ReplicaResult run_one(const RunSpec& spec, std::uint64_t seed, const std::string& label,
-                      const StudyOptions& options) {
-  RunOptions o;
-  o.quiet = options.quiet;
-  o.label = label;
-  return run_replica(spec, seed, o);
-}
-
 std::string markdown_table(const std::vector<std::string>& header,
                            const std::vector<std::vector<std::string>>& rows) {
   std::ostringstream os;

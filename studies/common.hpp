@@ -19,11 +19,6 @@ RunSpec spec_from_toml(const std::string& toml, const IntegratorSettings& integr
                        const std::vector<std::string>& overrides = {},
                        const std::string& source = "<study scene>");
 
-// Runs one replica of a spec (progress labelled `label` unless quiet). Never throws for an
-// IntegrationError: the result's status says what happened.
-ReplicaResult run_one(const RunSpec& spec, std::uint64_t seed, const std::string& label,
-                      const StudyOptions& options);
-
 // A markdown table: header names, then rows of already formatted cells.
 std::string markdown_table(const std::vector<std::string>& header,
                            const std::vector<std::vector<std::string>>& rows);

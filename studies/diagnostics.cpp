@@ -1,23 +1,25 @@
 // Stability and accuracy diagnostics shared by the timestep, stability and softness studies.
 #include "studies/diagnostics.hpp"
 
-#include <pthread.h>
-#include <time.h>
-
 #include <algorithm>
-#include <atomic>
-#include <chrono>
 #include <cmath>
 #include <complex>
-#include <condition_variable>
+#include <cstdint>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <limits>
-#include <mutex>
 #include <numbers>
-#include <thread>
+#include <sstream>
+#include <stdexcept>
 
+#include <toml++/toml.h>
+
+#include "driver/checkpoint.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
+#include "studies/sweep_study.hpp"
+#include "sweep/execute.hpp"
 
 namespace jamflow::studies {
 
@@ -286,6 +288,8 @@ std::string verdict_name(Verdict v) {
       return "incomplete";
     case Verdict::kNotSteady:
       return "not steady";
+    case Verdict::kCorrelated:
+      return "correlated";
   }
   return "?";
 }
@@ -301,9 +305,9 @@ std::string g3(double v) {
 Classification classify(const ReplicaResult& result, const EnergyBalance& balance,
                         const WindowResult* window, const Thresholds& th) {
   Classification c;
-  if (result.status.rfind("interrupted", 0) == 0) {
+  if (stopped_by_budget(result.status)) {
     c.verdict = Verdict::kIncomplete;
-    c.reason = result.status + " (CPU-time budget of the study)";
+    c.reason = result.status.substr(result.status.find(':') + 2) + ", the study's budget";
     return c;
   }
   if (result.status != "complete") {
@@ -369,7 +373,7 @@ std::string DiagnosedRun::verdict_text() const {
   switch (cls.verdict) {
     case Verdict::kStable:
       return std::string("stable") + (cls.laned ? ", lanes" : "") +
-             (cls.correlated ? ", blocks < 2 tau" : "");
+             (cls.correlated ? ", blocks < 2 tau (replica scatter used)" : "");
     case Verdict::kOscillating:
       return std::string("oscillating (") + cls.reason + ")" + (cls.laned ? ", lanes" : "");
     case Verdict::kDiverged: {
@@ -384,14 +388,10 @@ std::string DiagnosedRun::verdict_text() const {
       return "incomplete (" + cls.reason + ")";
     case Verdict::kNotSteady:
       return "not steady (" + cls.reason + ")";
+    case Verdict::kCorrelated:
+      return "correlated (" + cls.reason + ")";
   }
   return "?";
-}
-
-double thread_cpu_seconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 
 double commensurate(double target, double dt) {
@@ -400,78 +400,146 @@ double commensurate(double target, double dt) {
   return dt * std::max(1.0, std::round(target / dt));
 }
 
-DiagnosedRun execute(const RunRequest& request, const Thresholds& thresholds) {
-  DiagnosedRun d;
-  d.label = request.label;
-  RunSpec spec;
-  try {
-    std::vector<std::string> overrides = request.overrides;
-    overrides.push_back("run.threads=1");
-    spec = request.scene.spec(overrides, request.label);
-  } catch (const ConfigError& e) {
-    d.unavailable = e.what();
-    d.cls.verdict = Verdict::kNotAvailable;
-    d.cls.reason = e.what();
-    d.result.status = "not run";
-    return d;
+namespace {
+
+// The text of a failed verdict ("" if it passed or was not checked).
+std::string failed_verdict(const Summary& summary, const char* name) {
+  const auto it = summary.verdicts.find(name);
+  return it != summary.verdicts.end() && it->second.rfind("fail: ", 0) == 0 ? it->second.substr(6)
+                                                                            : std::string();
+}
+
+// The last non-empty line of a file (a run's log: what stopped it).
+std::string last_line(const std::string& path) {
+  std::ifstream in(path);
+  std::string line, last;
+  while (std::getline(in, line))
+    if (!line.empty())
+      last = line;
+  return last;
+}
+
+// The scene of a request as the stage's sweep gives it to its point: overrides applied, the
+// typed integrator settings as [integrator], the seed, the start state and the budget.
+Scene request_scene(const RunRequest& r) {
+  Scene scene = Scene::parse(r.scene.toml, r.label);
+  for (const auto& o : r.overrides)
+    scene.set(o);
+  if (r.scene.integrator)
+    scene.set_section("integrator", r.scene.integrator->table());
+  toml::table system = scene.table("system") ? *scene.table("system") : toml::table{};
+  system.insert_or_assign("seed", static_cast<std::int64_t>(r.seed));
+  if (!r.init.empty()) {
+    system.erase("N");  // both come from the start state
+    system.erase("phi");
+    system.insert_or_assign("init", std::filesystem::absolute(r.init).string());
   }
-  if (request.init)
-    spec.init_state = *request.init;
+  scene.set_section("system", std::move(system));
+  if (const toml::table* run = scene.table("run")) {
+    toml::table t = *run;
+    t.erase("threads");  // the sweep's to set
+    t.insert_or_assign("max_force_evaluations", r.budget);
+    scene.set_section("run", std::move(t));
+  }
+  return scene;
+}
+
+// The sweep of a stage: the first point's scene as the base, every section of each point (whole
+// [system], [ensemble], [shear], [integrator] tables; [run] key by key) in a zip, and the
+// points named by their labels.
+std::string stage_sweep(const std::vector<Scene>& scenes, const std::vector<std::string>& names,
+                        const std::string& study, const std::string& stage) {
+  toml::table zip;
+  for (const char* section : {"system", "ensemble", "shear", "integrator"}) {
+    toml::array column;
+    for (const auto& sc : scenes)
+      column.push_back(sc.table(section) ? *sc.table(section) : toml::table{});
+    zip.insert(section, std::move(column));
+  }
+  const toml::table* run0 = scenes.front().table("run");
+  if (run0) {
+    for (const auto& [key, value] : *run0) {
+      (void)value;
+      toml::array column;
+      for (const auto& sc : scenes) {
+        const toml::table* run = sc.table("run");
+        const toml::node* v = run ? run->get(key) : nullptr;
+        if (!v || run->size() != run0->size())
+          throw std::logic_error("stage " + stage + ": points with different [run] keys");
+        column.push_back(*v);
+      }
+      zip.insert("run." + std::string(key.str()), std::move(column));
+    }
+  }
+  toml::array name_list;
+  for (const auto& n : names)
+    name_list.push_back(n);
+  toml::table base;  // the first point's scene ([sweep.zip] sets every point's)
+  for (const char* section : {"system", "ensemble", "shear", "integrator", "run", "output"})
+    if (const toml::table* t = scenes.front().table(section))
+      base.insert(section, *t);
+  toml::table root{
+      {"sweep",
+       toml::table{{"replicas", 1}, {"names", std::move(name_list)}, {"zip", std::move(zip)}}},
+      {"scene", std::move(base)}};
+  std::ostringstream os;
+  os << "# The " << study << " study's stage '" << stage
+     << "': one point per run.\n# Written by `jamflow study`; run by it, or by `jamflow sweep` "
+        "like any sweep.\n"
+     << root << "\n";
+  return os.str();
+}
+
+}  // namespace
+
+std::string excluded_section(const std::vector<const DiagnosedRun*>& runs) {
+  std::string md =
+      "## Runs left out by their verdicts\n\n"
+      "A run enters the conclusions only if it is stable and its own verdicts pass: *not "
+      "steady* (its averaging window drifts), *correlated* (blocks shorter than 2 τ: with one "
+      "replica its block errors are too small and there is no replica scatter to use instead) "
+      "and *incomplete* (stopped by the budget) runs are left out.\n\n";
+  std::size_t count = 0;
+  for (const DiagnosedRun* r : runs) {
+    const Verdict v = r->cls.verdict;
+    if (v == Verdict::kNotSteady || v == Verdict::kCorrelated || v == Verdict::kIncomplete) {
+      md += "- " + r->label + ": " + r->verdict_text() + "\n";
+      ++count;
+    }
+  }
+  if (count == 0)
+    md += "None: every run that finished stable passed its verdicts.\n";
+  return md + "\n";
+}
+
+std::int64_t budget_for(double particle_steps, std::int64_t n) {
+  if (!(particle_steps > 0.0) || n <= 0)
+    return 0;
+  return std::max<std::int64_t>(1, std::llround(particle_steps / double(n)));
+}
+
+DiagnosedRun diagnose_file(const std::string& label, const RunSpec& spec, const std::string& file,
+                           const RunRequest& request, const Thresholds& thresholds) {
+  DiagnosedRun d;
+  d.label = label;
+  d.file = file;
   d.scene_text = spec.scene_text;
   d.n = spec.init_state ? static_cast<std::int64_t>(spec.init_state->size()) : spec.n;
   d.gdot = spec.shear_rate;
   d.dt = spec.make_integrator()->nominal_dt();
   d.t_eq = spec.t_eq;
   d.blocks = spec.blocks;
-  RunOptions ro;
-  ro.quiet = true;
-  ro.label = request.label;
-  const double cpu_start = thread_cpu_seconds();
-  // Budget: a watchdog thread raises the run's stop flag once this thread has used
-  // budget_seconds of CPU time (CPU, not wall time, so that a loaded machine does not cut runs).
-  std::atomic<bool> stop{false};
-  std::mutex m;
-  std::condition_variable cv;
-  bool finished = false;
-  std::thread watchdog;
-  clockid_t run_clock{};
-  if (request.budget_seconds > 0.0 && pthread_getcpuclockid(pthread_self(), &run_clock) == 0) {
-    ro.stop = &stop;
-    watchdog = std::thread([&, run_clock] {
-      std::unique_lock<std::mutex> lock(m);
-      while (!cv.wait_for(lock, std::chrono::milliseconds(200), [&] { return finished; })) {
-        timespec ts{};
-        clock_gettime(run_clock, &ts);
-        if (double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec) > cpu_start + request.budget_seconds) {
-          stop.store(true);
-          return;
-        }
-      }
-    });
+  RunFile f = read_run_file(file);
+  if (f.replicas.empty())
+    throw IoError("'" + file + "' holds no replica");
+  d.result = std::move(f.replicas.front());
+  if (d.result.status == "running") {
+    // The process stopped without a status of its own (an error other than a failed
+    // integration, e.g. a box that collapsed below the cell size): its log says why.
+    const std::string log = file.substr(0, file.find(".h5")) + ".log";
+    d.result.status = "aborted: " + last_line(log);
   }
-  auto stop_watchdog = [&] {
-    if (watchdog.joinable()) {
-      {
-        std::lock_guard<std::mutex> lock(m);
-        finished = true;
-      }
-      cv.notify_all();
-      watchdog.join();
-    }
-  };
-  const double cpu0 = thread_cpu_seconds();
-  try {
-    d.result = run_replica(spec, request.seed, ro);
-    stop_watchdog();
-  } catch (const std::exception& e) {
-    stop_watchdog();
-    // The engine refused to continue (e.g. a ConfigError "cell too small" after the box
-    // collapsed): the run is lost, the study reports the message.
-    ReplicaResult aborted;
-    aborted.status = std::string("aborted: ") + e.what();
-    d.result = std::move(aborted);
-  }
-  d.cpu_seconds = thread_cpu_seconds() - cpu0;
+  d.cpu_seconds = d.result.wall_seconds;
   for (const auto& [k, v] : d.result.integrator_stats) {
     if (k == "force_evaluations")
       d.particle_steps = v * double(d.n);
@@ -481,6 +549,9 @@ DiagnosedRun execute(const RunRequest& request, const Thresholds& thresholds) {
     d.balance =
         energy_balance(d.result.series.samples, spec.t_eq, spec.shear_rate,
                        spec.ensemble->imposed_pressure(), static_cast<std::size_t>(spec.blocks));
+    const std::string xyz = file.substr(0, file.find(".h5")) + ".final.xyz";
+    if (std::filesystem::exists(xyz))
+      d.final_xyz = xyz;
   }
   if (ok && request.window) {
     try {
@@ -490,51 +561,82 @@ DiagnosedRun execute(const RunRequest& request, const Thresholds& thresholds) {
     }
   }
   d.cls = classify(d.result, d.balance, ok && request.window ? &d.window : nullptr, thresholds);
-  // The run's own verdicts: a stable run whose window still drifts is kept out of conclusions;
-  // one whose blocks are shorter than 2 tau is flagged.
-  const auto& verdicts = d.result.summary.verdicts;
-  const auto failed = [&](const char* name) {
-    const auto it = verdicts.find(name);
-    return it != verdicts.end() && it->second.rfind("fail: ", 0) == 0 ? it->second.substr(6)
-                                                                      : std::string();
-  };
-  if (d.cls.verdict == Verdict::kStable && !failed("steady").empty()) {
+  // The run's own verdicts: a stable run whose window still drifts is kept out of conclusions,
+  // and so is one whose blocks are shorter than 2 tau (one replica: no scatter to fall back on).
+  const std::string drift = failed_verdict(d.result.summary, "steady");
+  const std::string short_blocks = failed_verdict(d.result.summary, "decorrelated");
+  d.cls.correlated = !short_blocks.empty();
+  if (d.cls.verdict == Verdict::kStable && !drift.empty()) {
     d.cls.verdict = Verdict::kNotSteady;
-    d.cls.reason = failed("steady");
+    d.cls.reason = drift;
+  } else if (d.cls.verdict == Verdict::kStable && d.cls.correlated &&
+             d.result.summary.values.count("replicas") == 0) {
+    d.cls.verdict = Verdict::kCorrelated;
+    d.cls.reason = short_blocks;
   }
-  d.cls.correlated = !failed("decorrelated").empty();
   return d;
 }
 
-std::vector<DiagnosedRun> execute_all(const std::vector<RunRequest>& requests, int workers,
-                                      bool quiet, const Thresholds& thresholds) {
-  std::vector<DiagnosedRun> out(requests.size());
-  if (requests.empty())
-    return out;
-  unsigned w = workers > 0 ? unsigned(workers) : std::max(1u, std::thread::hardware_concurrency());
-  w = std::min<unsigned>(w, unsigned(requests.size()));
-  std::atomic<std::size_t> next{0};
-  std::atomic<std::size_t> done{0};
-  std::mutex print;
-  auto worker = [&]() {
-    for (std::size_t k = next++; k < requests.size(); k = next++) {
-      out[k] = execute(requests[k], thresholds);
-      const std::size_t finished = ++done;
-      if (!quiet) {
-        std::lock_guard<std::mutex> lock(print);
-        std::printf("  [%zu/%zu] %-40s %7.1f s  %s\n", finished, requests.size(),
-                    out[k].label.c_str(), out[k].cpu_seconds, out[k].verdict_text().c_str());
-        std::fflush(stdout);
-      }
+std::optional<int> run_stage(const std::string& study, const std::string& stage,
+                             const std::vector<RunRequest>& requests, const StudyOptions& options,
+                             std::vector<DiagnosedRun>& out, bool last_stage,
+                             const Thresholds& thresholds) {
+  out.clear();
+  out.resize(requests.size());
+  std::vector<Scene> scenes;
+  std::vector<std::string> names;
+  std::vector<std::size_t> point_of(requests.size(), SIZE_MAX);
+  for (std::size_t k = 0; k < requests.size(); ++k) {
+    const RunRequest& r = requests[k];
+    DiagnosedRun& d = out[k];
+    d.label = r.label;
+    try {
+      Scene scene = request_scene(r);
+      (void)parse_run_spec(scene);  // rejected here: not available, never run
+      point_of[k] = scenes.size();
+      scenes.push_back(std::move(scene));
+      names.push_back(r.label);
+    } catch (const ConfigError& e) {
+      d.unavailable = e.what();
+      d.cls.verdict = Verdict::kNotAvailable;
+      d.cls.reason = e.what();
+      d.result.status = "not run";
     }
-  };
-  std::vector<std::thread> pool;
-  for (unsigned t = 1; t < w; ++t)
-    pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool)
-    t.join();
-  return out;
+  }
+  if (scenes.empty())
+    return std::nullopt;
+  SweepStudy sw;
+  SweepStage where;
+  where.name = stage;
+  where.last = last_stage;
+  where.collect_table = false;
+  if (const auto status =
+          run_sweep_study(study, stage_sweep(scenes, names, study, stage), options, sw, where))
+    return status;
+  for (std::size_t k = 0; k < requests.size(); ++k) {
+    if (point_of[k] == SIZE_MAX)
+      continue;
+    const sweep::Point& p = sw.plan.points[point_of[k]];
+    const sweep::Task task{p.index, 0, requests[k].seed, p.cost};
+    const RunSpec spec = parse_run_spec(sw.plan.task_scene(task));
+    const std::string file = sw.plan.task_file(task);
+    std::string detail;
+    const sweep::TaskState state = sweep::probe(sw.plan, task, &detail);
+    DiagnosedRun& d = out[k];
+    if (state == sweep::TaskState::kDone) {
+      d = diagnose_file(requests[k].label, spec, file, requests[k], thresholds);
+    } else if (std::filesystem::exists(file + ".part")) {
+      d = diagnose_file(requests[k].label, spec, file + ".part", requests[k], thresholds);
+    } else {
+      d.cls.verdict = Verdict::kDiverged;
+      d.cls.reason = "no output: " + last_line(sw.plan.task_log(task));
+      d.result.status = "failed: " + d.cls.reason;
+    }
+    if (!options.quiet)
+      std::printf("  %-44s %8.3g particle-steps  %s\n", d.label.c_str(), d.particle_steps,
+                  d.verdict_text().c_str());
+  }
+  return std::nullopt;
 }
 
 // ---- Output ---------------------------------------------------------------------------------

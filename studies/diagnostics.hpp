@@ -3,7 +3,8 @@
 // residual, SPEC §3-4, and the step-to-step oscillation detector): a lane order parameter (the
 // seed's N = 100 lanes, sec. "Model and numerical methods"), and a diagnosed run that classifies a
 // run as stable / oscillating / diverged. Criteria and thresholds are documented in
-// studies/stability/README.md.
+// studies/stability/README.md. The runs of a study stage go through the sweep engine
+// (run_stage): one mechanism for running points, whatever the study.
 #pragma once
 #include <cstdint>
 #include <optional>
@@ -103,11 +104,22 @@ struct WindowResult {
 WindowResult diagnostic_window(const RunSpec& spec, const State& start,
                                const WindowOptions& options);
 
-// kIncomplete: interrupted by the study's CPU-time budget for one run (too slow to finish).
-// kNotSteady: stable, but the run's own steady verdict (driver/verdicts.hpp) failed: its
-// averaging window still drifts. Like every verdict but kStable, it keeps the point out of a
-// study's conclusions, and the report says why.
-enum class Verdict { kStable, kOscillating, kDiverged, kNotAvailable, kIncomplete, kNotSteady };
+// kIncomplete: stopped by the study's budget for one run ([run] max_force_evaluations: too slow
+// to finish). kNotSteady: stable, but the run's own steady verdict (driver/verdicts.hpp) failed:
+// its averaging window still drifts. kCorrelated: stable and steady, but its decorrelated
+// verdict failed (blocks shorter than 2 tau) and it has a single replica, so its block errors
+// are too small and there is no replica scatter to take instead (the rule of the sweep's
+// collect and of analysis/data.cpp). Like every verdict but kStable, each keeps the point out of
+// a study's conclusions, and the report says why.
+enum class Verdict {
+  kStable,
+  kOscillating,
+  kDiverged,
+  kNotAvailable,
+  kIncomplete,
+  kNotSteady,
+  kCorrelated
+};
 std::string verdict_name(Verdict v);
 
 struct Thresholds {
@@ -122,7 +134,8 @@ struct Classification {
   std::string reason;  // what triggered the verdict, or what was checked
   bool laned = false;
   // The run's decorrelated verdict failed (blocks shorter than 2 tau): its block errors are too
-  // small. Flagged in the reports ("stable, blocks < 2 tau"); the point is not excluded.
+  // small. With one replica the verdict is kCorrelated (excluded); with several, the replica
+  // scatter bounds the error and the point is kept.
   bool correlated = false;
 };
 
@@ -145,14 +158,14 @@ struct StudyScene {
 };
 
 struct RunRequest {
-  std::string label;
+  std::string label;                   // also its point's name in the stage's sweep
   StudyScene scene;                    // TOML text (+ typed integrator settings)
   std::vector<std::string> overrides;  // "section.key=value"
   std::uint64_t seed = 1;
-  std::optional<State> init;  // start here instead of a random state
-  bool window = true;         // run the diagnostic window after the run
+  std::string init;    // XYZ start (an earlier stage's DiagnosedRun::final_xyz); empty: random
+  bool window = true;  // run the diagnostic window after the run
   WindowOptions window_options;
-  double budget_seconds = 0.0;  // wall-time limit of the main run (0: none)
+  std::int64_t budget = 0;  // [run] max_force_evaluations of the run (0: none)
 };
 
 struct DiagnosedRun {
@@ -167,30 +180,51 @@ struct DiagnosedRun {
   EnergyBalance balance;
   WindowResult window;
   Classification cls;
-  double cpu_seconds = 0.0;     // thread CPU time of the main run (1 OpenMP thread)
-  double particle_steps = 0.0;  // N * force evaluations of the main run
-  std::string unavailable;      // ConfigError text when the scene was rejected
+  // The run's wall seconds in its `jamflow run` process (one thread; the engine runs one point
+  // per core), and N * its force evaluations (the cost that does not depend on the machine).
+  double cpu_seconds = 0.0;
+  double particle_steps = 0.0;
+  std::string unavailable;  // ConfigError text when the scene was rejected
+  std::string file;         // the point's run file (r0.h5, or r0.h5.part if it did not finish)
+  std::string final_xyz;    // its final state (r0.final.xyz) when complete: a later stage's init
 
   bool complete() const {
     return cls.verdict != Verdict::kNotAvailable && result.status == "complete";
   }
   double value(const std::string& key) const;  // summary value, NaN if absent
   // "stable", "oscillating (reason)", "diverged (t = ..., message)", "not available (...)",
-  // "incomplete (interrupted at t = ... by the budget)".
+  // "incomplete (stopped at t = ... by the budget)", "correlated (blocks < 2 tau, ...)".
   std::string verdict_text() const;
 };
 
 Classification classify(const ReplicaResult& result, const EnergyBalance& balance,
                         const WindowResult* window, const Thresholds& thresholds);
 
-// Runs one request on the calling thread with 1 OpenMP thread. Never throws for a rejected
-// scene (ConfigError -> kNotAvailable) or a failed run (IntegrationError -> kDiverged).
-DiagnosedRun execute(const RunRequest& request, const Thresholds& thresholds = {});
+// Runs the requests of one stage of `study` as a sweep (studies/sweep_study.hpp) in
+// OUT/<stage>/, one point per request named by its label, and reads every point back from its
+// run file (driver/checkpoint.hpp read_run_file): series, summary and verdicts, final state,
+// counters, cost; then the energy balance, the diagnostic window (256 steps from the run's final
+// state, computed here: cheap next to the runs, and a diagnostic of these studies rather than a
+// verdict of every run) and the classification. A rejected scene is kNotAvailable and not run; a
+// run that failed is kDiverged. Returns an exit status when the study stops here (--dry-run,
+// --slurm, a signal, a non-root MPI rank), or nothing when `out` holds a run per request.
+std::optional<int> run_stage(const std::string& study, const std::string& stage,
+                             const std::vector<RunRequest>& requests, const StudyOptions& options,
+                             std::vector<DiagnosedRun>& out, bool last_stage,
+                             const Thresholds& thresholds = {});
 
-// Runs requests on `workers` threads (0: hardware concurrency), each run single-threaded.
-// Prints one line per finished run unless quiet.
-std::vector<DiagnosedRun> execute_all(const std::vector<RunRequest>& requests, int workers,
-                                      bool quiet, const Thresholds& thresholds = {});
+// The report's section on runs left out of the conclusions by the verdicts of issue 20 (not
+// steady, blocks < 2 tau with one replica, stopped by the budget), one line per run with why;
+// "none" when every run is in.
+std::string excluded_section(const std::vector<const DiagnosedRun*>& runs);
+
+// A study's per-run budget in particle-steps (N x force evaluations; 0: none) as a run's
+// [run] max_force_evaluations for N particles.
+std::int64_t budget_for(double particle_steps, std::int64_t n);
+
+// Reads one run back as run_stage does (tests): `file` is a run file of `spec`'s scene.
+DiagnosedRun diagnose_file(const std::string& label, const RunSpec& spec, const std::string& file,
+                           const RunRequest& request, const Thresholds& thresholds = {});
 
 // The sampling interval closest to `target` that is a whole number (>= 1) of steps of `dt`,
 // so that no integrator step is shortened to land on a sample (dt <= 0: target itself).
@@ -200,9 +234,6 @@ double commensurate(double target, double dt);
 // energy balance, window metrics, cost) and the sampled series.
 void write_diagnosed(H5Writer& out, const std::string& group, const DiagnosedRun& run,
                      bool with_series = true);
-
-// Thread CPU seconds of the calling thread.
-double thread_cpu_seconds();
 
 // ---- Scenes for the studies -----------------------------------------------------------------
 

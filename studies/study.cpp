@@ -15,15 +15,6 @@ std::vector<StudyInfo>& mutable_registry() {
   static std::vector<StudyInfo> studies;
   return studies;
 }
-std::string sweep_studies_list() {
-  std::string out;
-  for (const auto& s : mutable_registry()) {
-    if (s.on_sweep_engine)
-      out += (out.empty() ? "" : ", ") + s.name;
-  }
-  return out.empty() ? "(none)" : out;
-}
-
 }  // namespace
 
 Registrar::Registrar(StudyInfo info) {
@@ -49,18 +40,19 @@ int study_main(const std::vector<std::string>& args) {
   app.add_option("--preset", opt.preset, "quick (CI, minutes), standard (~1 h), paper (cluster)")
       ->check(CLI::IsMember({"quick", "standard", "paper"}));
   app.add_option("--out", opt.out_dir, "output folder (default out/<study>-<preset>)");
-  app.add_option("--threads", opt.threads, "OpenMP threads (0 = all)")
-      ->check(CLI::Range(0, 1024));  // as [run] threads; the message names the bounds
   app.add_flag("--quiet", opt.quiet, "no progress lines");
   app.add_option("-j,--jobs", opt.jobs,
-                 "points run at once, one thread each (studies on the sweep engine; default: "
-                 "the cores)")
+                 "points run at once, each a `jamflow run` process on one thread (default: the "
+                 "cores)")
       ->check(CLI::Range(1, 4096));
   app.add_flag("--dry-run", opt.dry_run,
-               "print the point count and the expected CPU-hours, and stop");
+               "print the point count and the expected CPU-hours (of a study in stages: its "
+               "first unfinished stage), and stop");
   app.add_flag("--slurm", opt.slurm,
-               "write the study's points as a Slurm job array (OUT/runs/sweep.sbatch); rerun the "
-               "study when it is done");
+               "write the study's points as a Slurm job array (OUT/runs/sweep.sbatch, or "
+               "OUT/STAGE/runs/sweep.sbatch for the first unfinished stage of a study in "
+               "stages); rerun the same command when it is done: the next stage's array, or "
+               "the report after the last");
   app.add_option("--time", opt.slurm_time, "Slurm time limit per array task (--slurm)");
   app.add_option("--array-size", opt.slurm_array_size, "Slurm array tasks (--slurm)")
       ->check(CLI::Range(1, 100000));
@@ -76,11 +68,6 @@ int study_main(const std::vector<std::string>& args) {
   }
   for (const auto& s : registry()) {
     if (s.name == name) {
-      if (!s.on_sweep_engine && (opt.dry_run || opt.slurm || opt.jobs > 0))
-        throw ConfigError("jamflow study " + name +
-                          ": --dry-run, --slurm and --jobs are for studies on the sweep engine; "
-                          "allowed for " +
-                          sweep_studies_list());
       if (!opt.only.empty() && name != "paper")
         throw ConfigError("jamflow study " + name + " --only; allowed with study paper only");
       if (opt.out_dir.empty())

@@ -11,11 +11,11 @@ namespace jamflow::studies {
 struct StudyOptions {
   std::string preset = "quick";  // quick | standard | paper
   std::string out_dir;           // default: out/<study>-<preset>
-  int threads = 0;
   bool quiet = false;
   bool no_plots = false;
-  // Studies whose points are a sweep (sweep/): points at once (0: the cores), print the point
-  // count and cost and stop, or write a Slurm job array instead of running.
+  // Every study runs its points as sweeps (studies/sweep_study.hpp): points at once (0: the
+  // cores), print the point count and cost and stop, or write a Slurm job array instead of
+  // running.
   int jobs = 0;
   bool dry_run = false;
   bool slurm = false;
@@ -41,7 +41,6 @@ struct StudyInfo {
   std::string name;
   std::string summary;
   StudyFn run;
-  bool on_sweep_engine = false;  // takes --jobs, --dry-run and --slurm (studies/sweep_study.hpp)
 };
 
 // All studies known to this build, sorted by name.

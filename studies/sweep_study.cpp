@@ -12,17 +12,40 @@
 
 namespace jamflow::studies {
 
+namespace {
+
+bool all_done(const sweep::Plan& plan) {
+  for (const auto& t : plan.tasks())
+    if (sweep::probe(plan, t) != sweep::TaskState::kDone)
+      return false;
+  return true;
+}
+
+}  // namespace
+
 std::optional<int> run_sweep_study(const std::string& study, const std::string& sweep_text,
-                                   const StudyOptions& options, SweepStudy& out) {
+                                   const StudyOptions& options, SweepStudy& out,
+                                   const SweepStage& stage) {
   namespace fs = std::filesystem;
-  ensure_dir(options.out_dir);
-  const std::string file = (fs::path(options.out_dir) / "sweep.toml").string();
+  const fs::path dir =
+      stage.name.empty() ? fs::path(options.out_dir) : fs::path(options.out_dir) / stage.name;
+  ensure_dir(dir.string());
+  const std::string file = (dir / "sweep.toml").string();
   write_text(file, sweep_text);
-  out.plan = sweep::load_plan(file, (fs::path(options.out_dir) / "runs").string());
-  out.plan.name = study;  // for the progress line
+  out.plan = sweep::load_plan(file, (dir / "runs").string());
+  // The progress line and the Slurm job name.
+  out.plan.name = stage.name.empty() ? study : study + "-" + stage.name;
   const sweep::CostEstimate cost = sweep::estimate_cost(out.plan);
   out.cpu_hours_estimate = cost.cpu_hours;
-  if (options.dry_run && options.tally && cost.particle_steps > 0.0) {
+  const std::string what = stage.name.empty() ? study : study + " (stage " + stage.name + ")";
+  const std::string next =
+      stage.last ? std::string()
+                 : "; the study's next stage is written when this one has finished (the same "
+                   "command again)";
+  // A finished stage of a study in stages is read back: the next stage is the one to count,
+  // write or run.
+  const bool finished_stage = !stage.name.empty() && all_done(out.plan);
+  if (options.dry_run && !finished_stage && options.tally && cost.particle_steps > 0.0) {
     double fresh = 0.0;
     for (const auto& t : out.plan.tasks()) {
       if (options.tally->scenes.insert(out.plan.task_scene(t).text()).second)
@@ -30,17 +53,17 @@ std::optional<int> run_sweep_study(const std::string& study, const std::string& 
     }
     options.tally->cpu_hours += cost.cpu_hours * fresh / cost.particle_steps;
   }
-  if (options.dry_run) {
+  if (options.dry_run && !finished_stage) {
     std::printf(
         "%s --preset %s: %zu points x %lld replicas = %zu runs, %.3g particle force "
         "evaluations, about %.3g CPU-hours (40 ns each; CVODE counted as 4 per tau_0) "
-        "-> %s\n",
-        study.c_str(), options.preset.c_str(), out.plan.points.size(),
+        "-> %s%s\n",
+        what.c_str(), options.preset.c_str(), out.plan.points.size(),
         static_cast<long long>(out.plan.replicas), cost.tasks, cost.particle_steps, cost.cpu_hours,
-        out.plan.out_dir.c_str());
+        out.plan.out_dir.c_str(), next.c_str());
     return 0;
   }
-  if (options.slurm) {
+  if (options.slurm && !finished_stage) {
     sweep::SlurmOptions so;
     so.time = options.slurm_time;
     so.array_size = options.slurm_array_size;
@@ -48,21 +71,37 @@ std::optional<int> run_sweep_study(const std::string& study, const std::string& 
     const std::string script = sweep::write_slurm_script(out.plan, so);
     std::printf(
         "%s\nsubmit it with: sbatch %s\nthen, when the array is done: jamflow study %s "
-        "--preset %s --out %s\n",
+        "--preset %s --out %s%s\n",
         script.c_str(), script.c_str(), study.c_str(), options.preset.c_str(),
-        options.out_dir.c_str());
+        options.out_dir.c_str(),
+        stage.last ? "" : " (it writes the next stage's array, or the report after the last)");
     return 0;
   }
-  sweep::EngineOptions eo;
-  eo.jobs = options.jobs;
-  eo.quiet = options.quiet;
-  eo.reuse = options.reuse;
-  const int status = sweep::run_plan(out.plan, eo);
-  if (status >= 128)
-    return status;  // stopped: the checkpoints continue on the next run
-  if (sweep::mpi_launched() && sweep::launched_rank() != 0)
-    return status;  // under mpirun, rank 0 alone collects and analyses
-  out.table = (fs::path(options.out_dir) / "table.csv").string();
+  if (!finished_stage) {
+    sweep::EngineOptions eo;
+    eo.jobs = options.jobs;
+    eo.quiet = options.quiet;
+    eo.reuse = options.reuse;
+    const int status = sweep::run_plan(out.plan, eo);
+    if (status >= 128)
+      return status;  // stopped: the checkpoints continue on the next run
+    if (sweep::mpi_launched()) {
+      if (sweep::launched_rank() != 0)
+        return status;  // under mpirun, rank 0 alone collects and analyses
+      if (!stage.last) {
+        std::printf("%s: stage %s done; run the same command again for the next stage\n",
+                    study.c_str(), stage.name.c_str());
+        return status;
+      }
+    }
+  }
+  // Under mpirun, rank 0 alone analyses: the other ranks stop after the last stage, also when
+  // it had finished before this launch.
+  if (stage.last && sweep::mpi_launched() && sweep::launched_rank() != 0)
+    return 0;
+  if (!stage.collect_table)
+    return std::nullopt;
+  out.table = (dir / "table.csv").string();
   const sweep::Collected c = sweep::collect(out.plan, out.table);
   out.finished = c.rows;
   for (const auto& why : c.left_out)

@@ -3,6 +3,12 @@
 // under mpirun), or writes a Slurm job array for them (--slurm), or only counts them
 // (--dry-run). Rerunning the study finds the finished points, so the analysis of a preset run on
 // a cluster is one more `jamflow study` on the same OUT.
+//
+// A study in stages (a preparation whose final states start later runs) runs each stage as its
+// own sweep in OUT/<stage>/ (sweep.toml, runs/). A stage whose points are all finished is read
+// back whatever the options; the first unfinished one is counted (--dry-run), written as a job
+// array (--slurm) or run. Under mpirun, a launch that computed a stage other than the last ends
+// there: the same command again goes on with the next stage.
 #pragma once
 #include <optional>
 #include <string>
@@ -19,12 +25,20 @@ struct SweepStudy {
   double cpu_hours_estimate = 0.0;
 };
 
+// Where a sweep goes in a study's output folder.
+struct SweepStage {
+  std::string name;           // empty: OUT itself (one-stage studies); else OUT/<name>
+  bool last = true;           // no stage comes after this one
+  bool collect_table = true;  // collect OUT/table.csv (one-stage studies)
+};
+
 // Writes the sweep file, then: --dry-run prints the point count and the CPU-hour estimate and
 // returns the exit status 0; --slurm writes the job array and returns 0; otherwise runs every
 // unfinished point. A stop by a signal returns 128 + the signal. Returns nothing when the
-// points are finished (failed points are reported and left out) and the table is collected
-// into `out`.
+// points are finished (failed points are reported and left out) and, with collect_table, the
+// table is collected into `out`.
 std::optional<int> run_sweep_study(const std::string& study, const std::string& sweep_text,
-                                   const StudyOptions& options, SweepStudy& out);
+                                   const StudyOptions& options, SweepStudy& out,
+                                   const SweepStage& stage = {});
 
 }  // namespace jamflow::studies

@@ -9,6 +9,7 @@
 #include <map>
 #include <sstream>
 
+#include "driver/checkpoint.hpp"
 #include "driver/run.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
@@ -19,24 +20,6 @@ namespace jamflow::sweep {
 namespace fs = std::filesystem;
 
 namespace {
-
-// The /summary of one replica file, as the driver wrote it.
-Summary read_summary(const std::string& file) {
-  H5Reader r(file);
-  Summary s;
-  for (const auto& name : r.attr_names("/summary")) {
-    if (name.rfind("verdict_", 0) == 0) {
-      s.verdicts[name.substr(8)] = r.attr_string("/summary", name);
-      continue;
-    }
-    try {
-      s.values[name] = r.attr_double("/summary", name);
-    } catch (const std::exception&) {
-      // strings (ensemble, integrator, texts) and integers are taken from the scene
-    }
-  }
-  return s;
-}
 
 std::string cell(double v) {
   if (std::isnan(v))
@@ -117,13 +100,16 @@ Collected collect(const Plan& plan, const std::string& path) {
     for (const Task* t : ts) {
       std::string detail;
       const TaskState s = probe(plan, *t, &detail);
-      if (s != TaskState::kDone) {
-        why = std::string("r").append(std::to_string(t->replica)).append(" ").append(state_name(s));
+      if (s != TaskState::kDone || detail != "complete") {
+        why = std::string("r")
+                  .append(std::to_string(t->replica))
+                  .append(" ")
+                  .append(s == TaskState::kDone ? "finished without a summary" : state_name(s));
         if (!detail.empty())
           why.append(" (").append(detail).append(")");
         break;
       }
-      sums.push_back(read_summary(plan.task_file(*t)));
+      sums.push_back(read_run_file(plan.task_file(*t), false).replicas.front().summary);
     }
     if (!why.empty()) {
       out.left_out.push_back(p.name + ": " + why);

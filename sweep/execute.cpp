@@ -17,6 +17,7 @@
 #include <sstream>
 #include <thread>
 
+#include "driver/run.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "lib/progress.hpp"
@@ -76,7 +77,9 @@ TaskState probe(const Plan& plan, const Task& task, std::string* detail) {
     const std::string status = status_of(file);
     if (detail)
       *detail = status;
-    return status == "complete" ? TaskState::kDone : TaskState::kFailed;
+    // A run stopped by its [run] max_force_evaluations is finished too: rerunning it would
+    // stop at the same sample (collect leaves it out of the table, saying why).
+    return finished_status(status) ? TaskState::kDone : TaskState::kFailed;
   }
   if (fs::exists(file + ".part", ec)) {
     const std::string status = status_of(file + ".part");

@@ -207,9 +207,10 @@ Plan parse_plan(const std::string& text, const std::string& source, const std::s
     throw ConfigError(source + ": no [sweep] section; allowed a sweep file with [sweep]");
   for (const auto& [k, v] : *sw) {
     const std::string key(k.str());
-    if (key != "scene" && key != "replicas" && key != "grid" && key != "zip" && key != "names_from")
+    if (key != "scene" && key != "replicas" && key != "grid" && key != "zip" &&
+        key != "names_from" && key != "names")
       throw ConfigError(source + ": unknown key [sweep] " + key +
-                        "; allowed scene, replicas, grid, zip, names_from");
+                        "; allowed scene, replicas, grid, zip, names_from, names");
   }
   Plan plan;
   plan.path = source;
@@ -307,6 +308,21 @@ Plan parse_plan(const std::string& text, const std::string& source, const std::s
       naming.insert(key);
     }
   }
+  // Or the points' names given one by one, in point order (how a study names its points).
+  std::vector<std::string> given_names;
+  if (const toml::node* gn = sw->get("names")) {
+    if (sw->get("names_from"))
+      throw ConfigError(source + ": both [sweep] names and names_from; allowed one of them");
+    const auto* arr = gn->as_array();
+    if (!arr || arr->empty())
+      throw ConfigError(source + ": [sweep] names: allowed a non-empty list of strings");
+    for (const auto& n : *arr) {
+      if (!n.is_string() || n.as_string()->get().empty())
+        throw ConfigError(source + ": [sweep] names: " + value_text(n) +
+                          "; allowed non-empty strings");
+      given_names.push_back(name_part(n.as_string()->get()));
+    }
+  }
   // Short names: the key's last part, unless two axes share it.
   std::map<std::string, int> last_count;
   auto last = [](const std::string& k) { return k.substr(k.rfind('.') + 1); };
@@ -334,6 +350,10 @@ Plan parse_plan(const std::string& text, const std::string& source, const std::s
     if (count > 100000)
       throw ConfigError(source + ": the sweep has more than 100000 points; allowed at most that");
   }
+  if (!given_names.empty() && given_names.size() != count)
+    throw ConfigError(source + ": [sweep] names has " + std::to_string(given_names.size()) +
+                      " names for " + std::to_string(count) +
+                      " points; allowed one name per point");
   std::set<std::string> names;
   for (std::size_t i = 0; i < count; ++i) {
     Point p;
@@ -359,8 +379,10 @@ Plan parse_plan(const std::string& text, const std::string& source, const std::s
       apply(grid[d], at[d]);
     for (const auto& a : zip)
       apply(a, at.back());
+    if (!given_names.empty())
+      p.name = given_names[i];
     for (const auto& [k, v] : p.values) {
-      if (!naming.count(k))
+      if (!given_names.empty() || !naming.count(k))
         continue;
       if (!p.name.empty())
         p.name += '_';

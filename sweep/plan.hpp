@@ -10,6 +10,7 @@
 //   "system.N" = [500, 1000]
 //   "integrator.dt" = [0.2, 0.1]
 //   # names_from = ["ensemble.pressure", "shear.rate"]   optional: the keys that name points
+//   # names = ["a", "b"]   optional instead: one name per point, in point order
 //
 // Keys are taken in alphabetical order (TOML tables are unordered): the grid's first key varies
 // slowest, the zip comes last, and a point's name lists its values in that order.

@@ -8,12 +8,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <exception>
 #include <map>
-#include <mutex>
 #include <numeric>
+#include <optional>
 #include <sstream>
-#include <thread>
 
 #include "driver/run.hpp"
 #include "ensembles/constant_volume.hpp"
@@ -24,7 +22,9 @@
 #include "lib/model.hpp"
 #include "lib/statistics.hpp"
 #include "lib/version.hpp"
+#include "lib/xyz.hpp"
 #include "studies/common.hpp"
+#include "studies/diagnostics.hpp"
 #include "studies/study.hpp"
 
 namespace jamflow::studies {
@@ -101,43 +101,6 @@ std::string scene_toml(const Preset& p, bool constant_pressure, double phi, std:
   os << "[run]\nt_eq = " << fmt(t_eq) << "\nt_av = " << fmt(p.t_av)
      << "\nsample_every = " << fmt(p.sample_every) << "\nblocks = 20\nthreads = 1\n";
   return os.str();
-}
-
-// Runs jobs on `workers` threads, each run single-threaded. HDF5 is written afterwards on the
-// calling thread. Any exception other than an IntegrationError (which run_replica turns into a
-// status) is rethrown here.
-template <class Job>
-void run_parallel(std::size_t count, int workers, const Job& job) {
-  std::mutex m;
-  std::size_t next = 0;
-  std::exception_ptr error;
-  auto worker = [&] {
-    for (;;) {
-      std::size_t k;
-      {
-        std::lock_guard<std::mutex> lock(m);
-        if (next >= count || error)
-          return;
-        k = next++;
-      }
-      try {
-        job(k);
-      } catch (...) {
-        std::lock_guard<std::mutex> lock(m);
-        if (!error)
-          error = std::current_exception();
-      }
-    }
-  };
-  const int w = std::max(1, std::min<int>(workers, int(count)));
-  std::vector<std::thread> threads;
-  for (int t = 1; t < w; ++t)
-    threads.emplace_back(worker);
-  worker();
-  for (auto& t : threads)
-    t.join();
-  if (error)
-    std::rethrow_exception(error);
 }
 
 // A random state at phi with its overlaps relaxed at constant volume without shear (explicit
@@ -309,12 +272,44 @@ std::string table_markdown(const EnsembleRuns& np, const EnsembleRuns& nv) {
                         rows);
 }
 
+// The runs of one ensemble as a stage of the study (studies/diagnostics.hpp run_stage): replica
+// k starts from starts[k] with seed seed0 + k. Returns an exit status when the study stops here.
+std::optional<int> run_ensemble_stage(const std::string& stage, const Preset& p,
+                                      const std::string& scene,
+                                      const std::vector<std::string>& starts, std::uint64_t seed0,
+                                      const StudyOptions& options, std::vector<ReplicaResult>& runs,
+                                      bool last) {
+  std::vector<RunRequest> requests;
+  for (std::size_t k = 0; k < starts.size(); ++k) {
+    RunRequest r;
+    r.label = stage + " r" + std::to_string(k);
+    r.scene = StudyScene(scene, p.integrator);
+    r.seed = seed0 + k;
+    r.init = starts[k];
+    r.window = false;
+    requests.push_back(std::move(r));
+  }
+  std::vector<DiagnosedRun> done;
+  if (const auto status = run_stage("ensemble", stage, requests, options, done, last))
+    return status;
+  runs.clear();
+  for (auto& d : done)
+    runs.push_back(std::move(d.result));
+  return std::nullopt;
+}
+
+// Writes a start state for a stage (rewritten with the same bytes on a rerun).
+std::string write_start(const std::string& dir, std::size_t k, const State& s) {
+  ensure_dir(dir);
+  const std::string path = dir + "/r" + std::to_string(k) + ".xyz";
+  write_xyz_file(path, s);
+  return path;
+}
+
 int run_ensemble_study(const StudyOptions& options) {
   const Preset p = preset_of(options.preset);
   const auto wall0 = std::chrono::steady_clock::now();
   ensure_dir(options.out_dir);
-  const int workers = options.threads > 0 ? options.threads
-                                          : int(std::max(1u, std::thread::hardware_concurrency()));
   const std::uint64_t seed0 = 1;
   const double j = p.shear_rate / p.pressure;
   const double phi0 = phi_start(j, p.n);
@@ -324,26 +319,23 @@ int run_ensemble_study(const StudyOptions& options) {
   };
   log("preset " + p.name + ": N = " + std::to_string(p.n) + ", P = " + fmt(p.pressure) +
       ", gdot = " + fmt(p.shear_rate) + " (J = " + num(j, 4) + "), " + std::to_string(p.replicas) +
-      " replicas per ensemble on " + std::to_string(workers) +
-      " worker(s); start phi = " + num(phi0, 4));
+      " replicas per ensemble; start phi = " + num(phi0, 4));
 
-  // 1. Starting states: random at phi0, overlaps relaxed without shear.
-  std::vector<State> starts(std::size_t(p.replicas));
-  run_parallel(starts.size(), workers,
-               [&](std::size_t k) { starts[k] = relaxed_start(p, phi0, seed0 + k); });
+  // 1. Starting states: random at phi0, overlaps relaxed without shear (a fraction of a second:
+  // computed here, and written as the constant-pressure stage's start files).
+  std::vector<std::string> np_starts;
+  for (std::size_t k = 0; k < std::size_t(p.replicas); ++k)
+    np_starts.push_back(
+        write_start(options.out_dir + "/np/starts", k, relaxed_start(p, phi0, seed0 + k)));
 
   // 2. Constant pressure from those states.
   EnsembleRuns np;
   np.name = "constant_pressure";
   np.spec =
       spec_from_toml(scene_toml(p, true, phi0, seed0), p.integrator, {}, "<ensemble study NP>");
-  np.runs.resize(starts.size());
-  run_parallel(starts.size(), workers, [&](std::size_t k) {
-    RunSpec spec =
-        spec_from_toml(scene_toml(p, true, phi0, seed0), p.integrator, {}, "<ensemble study NP>");
-    spec.init_state = starts[k];
-    np.runs[k] = run_one(spec, seed0 + k, "NP r" + std::to_string(k), options);
-  });
+  if (const auto status = run_ensemble_stage("np", p, scene_toml(p, true, phi0, seed0), np_starts,
+                                             seed0, options, np.runs, false))
+    return *status;
   std::string why;
   if (!all_complete(np.runs, why)) {
     std::fprintf(stderr, "jamflow study ensemble: a constant-pressure run failed: %s\n",
@@ -361,16 +353,16 @@ int run_ensemble_study(const StudyOptions& options) {
   nv.name = "constant_volume";
   nv.spec =
       spec_from_toml(scene_toml(p, false, phi_nv, seed0), p.integrator, {}, "<ensemble study NV>");
-  nv.runs.resize(starts.size());
-  run_parallel(starts.size(), workers, [&](std::size_t k) {
-    RunSpec spec = spec_from_toml(scene_toml(p, false, phi_nv, seed0), p.integrator, {},
-                                  "<ensemble study NV>");
+  std::vector<std::string> nv_starts;
+  for (std::size_t k = 0; k < np.runs.size(); ++k) {
     State s = np.runs[k].final_state;
     s.box.set_volume(s.particle_volume() / phi_nv);
     s.time = 0.0;
-    spec.init_state = s;
-    nv.runs[k] = run_one(spec, seed0 + k, "NV r" + std::to_string(k), options);
-  });
+    nv_starts.push_back(write_start(options.out_dir + "/nv/starts", k, s));
+  }
+  if (const auto status = run_ensemble_stage("nv", p, scene_toml(p, false, phi_nv, seed0),
+                                             nv_starts, seed0, options, nv.runs, true))
+    return *status;
   if (!all_complete(nv.runs, why)) {
     std::fprintf(stderr, "jamflow study ensemble: a constant-volume run failed: %s\n", why.c_str());
     return 1;
@@ -458,6 +450,28 @@ int run_ensemble_study(const StudyOptions& options) {
       rep << (k ? "; " : "") << e->excluded[k];
     rep << ".\n";
   }
+  {
+    // Blocks shorter than 2 tau (the decorrelated verdict): with several replicas the point is
+    // kept and its error is the larger of the block error and the replica scatter (the rule of
+    // the sweep's collect); a single replica would be left out.
+    std::string short_blocks;
+    for (const EnsembleRuns* e : {&np, &nv}) {
+      for (std::size_t k = 0; k < e->runs.size(); ++k) {
+        const auto it = e->runs[k].summary.verdicts.find("decorrelated");
+        if (it != e->runs[k].summary.verdicts.end() && it->second.rfind("fail", 0) == 0)
+          short_blocks += std::string(short_blocks.empty() ? "" : ", ") + e->name + " replica " +
+                          std::to_string(k);
+      }
+    }
+    rep << "- decorrelated: "
+        << (short_blocks.empty()
+                ? std::string("every replica's blocks are at least 2 tau long.")
+                : "blocks shorter than 2 tau in " + short_blocks + "; kept, as each ensemble has " +
+                      std::to_string(p.replicas) +
+                      " replicas: read the larger of the block and the replica-scatter error "
+                      "in the table (a single replica would be left out).")
+        << "\n";
+  }
   rep << "\n";
   rep << "## Correlation times and block length\n\n"
       << "Integrated autocorrelation times (tau_0) over the replicas, against the block length "
@@ -487,7 +501,8 @@ int run_ensemble_study(const StudyOptions& options) {
     rep << "\n";
   }
   rep << "\n";
-  rep << "Wall time: " << num(wall, 4) << " s on " << workers << " worker(s).\n";
+  rep << "Wall time: " << num(wall, 4)
+      << " s (the runs are `jamflow run` processes of the sweep engine, one per core).\n";
   write_text(options.out_dir + "/report.md", rep.str());
   run_plot("ensemble/plot.py", {h5, options.out_dir + "/timeseries.png"}, options);
 

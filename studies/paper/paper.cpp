@@ -215,15 +215,6 @@ int run(const StudyOptions& options) {
     sub.out_dir = dir.string();
     sub.reuse = {out.string()};
     sub.tally = &tally;
-    if (!info->on_sweep_engine) {
-      sub.jobs = 0;  // runs its points in-process
-      if (options.dry_run) {
-        std::printf("%s --preset %s: runs in-process, no estimate before it runs\n", part.study,
-                    options.preset.c_str());
-        rows.push_back({part.seed, part.study, "no estimate (in-process)", "-", "-", "-"});
-        continue;
-      }
-    }
     if (!options.quiet && !options.dry_run)
       std::printf("study paper: %s (%s)\n", part.study, part.seed);
     const auto start = std::chrono::steady_clock::now();
@@ -257,9 +248,9 @@ int run(const StudyOptions& options) {
   }
   if (options.dry_run) {
     std::printf(
-        "study paper --preset %s: %zu distinct runs, about %.3g CPU-hours for the "
-        "studies on the sweep engine (40 ns per particle force evaluation; runs that "
-        "studies share are counted once)\n",
+        "study paper --preset %s: %zu distinct runs, about %.3g CPU-hours (40 ns per particle "
+        "force evaluation; runs that studies share are counted once; a study in stages counts "
+        "its first unfinished stage)\n",
         options.preset.c_str(), tally.scenes.size(), tally.cpu_hours);
     return worst;
   }
@@ -283,7 +274,7 @@ int run(const StudyOptions& options) {
 const Registrar reg{{"paper",
                      "every study in dependency order on one sweep engine, shared points run "
                      "once, one report beside the seed's Figs. 1-9 and Table 2",
-                     run, true}};
+                     run}};
 
 }  // namespace
 }  // namespace jamflow::studies

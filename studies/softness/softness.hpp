@@ -27,7 +27,9 @@ struct SoftnessPreset {
   double mu_tolerance = 0.01, phi_tolerance = 1e-3;  // "accurate" (plus 2x paired floor)
   // Phase B (pressure scan) durations: t_eq = max(t_min, strain_eq / gdot), same for t_av.
   double strain_eq = 0.1, strain_av = 0.5, t_min = 1000.0;
-  double budget_seconds = 0.0;  // CPU-time limit per run (0: none)
+  // Particle-steps (N x force evaluations) allowed per run (0: none); over it a run is
+  // "incomplete". 3.75e8 is about 15 s of one core (40 ns each).
+  double budget_particle_steps = 0.0;
 };
 
 SoftnessPreset softness_preset(const std::string& name);  // quick | standard | paper

@@ -15,7 +15,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 COLORS = {"stable": "tab:green", "oscillating": "tab:orange", "diverged": "tab:red",
-          "incomplete": "tab:purple", "not available": "lightgrey"}
+          "incomplete": "tab:purple", "not steady": "tab:olive", "correlated": "tab:cyan",
+          "not available": "lightgrey"}
 
 
 def text(v):

@@ -28,7 +28,10 @@ StabilityPreset stability_preset(const std::string& name) {
     p.strain_eq = 0.01;
     p.t_eq_min = 100.0;
     p.strain_av = 0.1;
-    p.t_av_min = 600.0;
+    // Blocks of 100 (20 over t_av = 2000): longer than 2 tau at P = 0.1 (about 45), so its stable
+    // runs pass the decorrelated verdict and count; at P = 1e-2 (2 tau of 110-260) they are
+    // still left out as correlated (measured on the quick preset).
+    p.t_av_min = 2000.0;
     p.dts = {0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 1.0, 1.5};
     p.stiff_dts = {0.01};
     p.lane_dts = {0.05, 0.1, 0.3, 0.5, 1.0};
@@ -37,7 +40,7 @@ StabilityPreset stability_preset(const std::string& name) {
     p.cvode_tols = {1e-4};
     p.lane_pressure = 1e-4;
     p.lane_gdot = 1e-4;
-    p.budget_seconds = 5.0;
+    p.budget_particle_steps = 1.25e8;  // about 5 s
     p.cvode_max_steps = 20000;
   } else if (name == "standard") {
     p.n = 500;
@@ -56,7 +59,7 @@ StabilityPreset stability_preset(const std::string& name) {
     p.lane_pressure = 1e-5;
     p.lane_gdot = 1e-6;
     p.lane_strain_av = 0.3;
-    p.budget_seconds = 300.0;
+    p.budget_particle_steps = 7.5e9;  // about 300 s
   } else if (name == "paper") {
     p.n = 1000;
     p.strain_prep = 1.0;
@@ -235,7 +238,6 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
     std::printf("jamflow study stability (%s): %zu cases -> %s\n", preset.name.c_str(),
                 cases.size(), options.out_dir.c_str());
   }
-  const double cpu0 = thread_cpu_seconds();
   const auto wall0 = std::chrono::steady_clock::now();
 
   // 1. Preparation: one steady state per case at a safe step, shared by all its runs.
@@ -251,7 +253,9 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
     r.window = false;
     prep_requests.push_back(r);
   }
-  std::vector<DiagnosedRun> preps = execute_all(prep_requests, options.threads, options.quiet);
+  std::vector<DiagnosedRun> preps;
+  if (const auto status = run_stage("stability", "prep", prep_requests, options, preps, false))
+    return *status;
 
   // 2. The scans.
   std::vector<CaseResult> results;
@@ -276,21 +280,23 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
     const double t_eq = duration(preset.strain_eq, pt.gdot, preset.t_eq_min);
     const double t_av = duration(strain_av, pt.gdot, preset.t_av_min);
     cr.runs.resize(cr.settings.size());
-    if (preps[ci].complete()) {
+    if (preps[ci].complete() && !preps[ci].final_xyz.empty()) {
       for (std::size_t k = 0; k < cr.settings.size(); ++k) {
         RunRequest r;
         r.label = cr.c.name + " " + cr.settings[k].label;
         r.scene = scene_toml(pt, cr.settings[k], t_eq, t_av, t_av / 400.0);
         r.seed = pt.seed;
-        r.init = preps[ci].result.final_state;
-        r.budget_seconds = preset.budget_seconds;
+        r.init = preps[ci].final_xyz;
+        r.budget = budget_for(preset.budget_particle_steps, pt.n);
         index.emplace_back(ci, k);
         requests.push_back(std::move(r));
       }
     }
     results.push_back(std::move(cr));
   }
-  std::vector<DiagnosedRun> done = execute_all(requests, options.threads, options.quiet);
+  std::vector<DiagnosedRun> done;
+  if (const auto status = run_stage("stability", "scan", requests, options, done, true))
+    return *status;
   for (std::size_t q = 0; q < done.size(); ++q)
     results[index[q].first].runs[index[q].second] = std::move(done[q]);
   for (auto& cr : results) {
@@ -360,10 +366,12 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
       "as numbers; **oscillating** = period-2 share of the force power above 5 % (force "
       "step correlation < 0.9) or energy balance below 1 by more than max(5 %, 3σ) (dissipation "
       "inflated); "
-      "**lanes** = lane order ≥ 0.3; **incomplete** = stopped by the per-run CPU-time budget (" +
-      short_num(preset.budget_seconds) +
-      " s; 0 = none), i.e. too slow for this preset. Criteria: `studies/stability/README.md`. "
-      "All runs single-threaded; CPU s is thread CPU time.\n\n";
+      "**lanes** = lane order ≥ 0.3; **incomplete** = stopped by the per-run budget of " +
+      short_num(preset.budget_particle_steps) + " particle-steps (about " +
+      short_num(preset.budget_particle_steps * 40e-9) +
+      " s of one core; 0 = none), i.e. too slow for this preset. Criteria: "
+      "`studies/stability/README.md`. Every run is a `jamflow run` process on one thread, one "
+      "per core (the sweep engine); CPU s is its wall time.\n\n";
   std::vector<std::vector<std::string>> summary_rows;
   for (const auto& cr : results) {
     summary_rows.push_back({cr.c.name, cr.c.point.describe(),
@@ -387,6 +395,13 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
                         : cr.prep.result.series.samples.back().time) +
           ".\n\n";
     md += case_table(cr) + "\n";
+  }
+  {
+    std::vector<const DiagnosedRun*> all;
+    for (const auto& cr : results)
+      for (const auto& r : cr.runs)
+        all.push_back(&r);
+    md += excluded_section(all);
   }
   md += "## Conclusions\n\n";
   for (const auto& cr : results) {
@@ -422,8 +437,7 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
                                  return r;
                                }())
                     .c_str());
-    std::printf("stability: wall %.1f s (this thread CPU %.1f s); report %s/report.md\n", wall,
-                thread_cpu_seconds() - cpu0, options.out_dir.c_str());
+    std::printf("stability: wall %.1f s; report %s/report.md\n", wall, options.out_dir.c_str());
   }
   return 0;
 }

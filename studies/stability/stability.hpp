@@ -28,8 +28,10 @@ struct StabilityPreset {
   std::vector<double> respa_dts;
   std::vector<double> cvode_tols;
   double lane_pressure = 1e-4, lane_gdot = 1e-4, lane_strain_av = 0.0;
-  double budget_seconds = 0.0;  // CPU-time limit per run (0: none); over it: "incomplete"
-  long cvode_max_steps = 0;     // CVODE steps per sample interval (0: CVODE's default)
+  // Particle-steps (N x force evaluations) allowed per run (0: none); over it: "incomplete".
+  // 1.25e8 is about 5 s of one core (40 ns each).
+  double budget_particle_steps = 0.0;
+  long cvode_max_steps = 0;  // CVODE steps per sample interval (0: CVODE's default)
 };
 
 StabilityPreset stability_preset(const std::string& name);  // quick | standard | paper

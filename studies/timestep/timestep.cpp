@@ -62,11 +62,14 @@ TimestepPreset timestep_preset(const std::string& name) {
     p.strain_eq = 0.01;
     p.t_eq_min = 100.0;
     p.strain_av = 0.2;
-    p.t_av_min = 1000.0;
+    // Blocks of 250 (20 over t_av = 5000): longer than 2 tau_sigma_xy at phi = 0.60 (about
+    // 100), so the constant-volume references pass the decorrelated verdict and the study has
+    // points to compare (at phi = 0.64, 2 tau is about 230: borderline).
+    p.t_av_min = 5000.0;
     p.euler_dts = {0.02, 0.1, 0.3, 0.5, 1.0, 1.5};
     p.respa = {{{"particles", 4, "euler"}, {1.0}}, {{"piston", 4, "euler"}, {0.2}}};
     p.cvode_tols = {1e-3, 1e-5};
-    p.budget_seconds = 10.0;
+    p.budget_particle_steps = 2.5e8;  // about 10 s
     p.cvode_max_steps = 20000;
   } else if (name == "standard") {
     const std::int64_t n = 1000;
@@ -85,7 +88,7 @@ TimestepPreset timestep_preset(const std::string& name) {
                {{"piston", 4, "euler"}, {0.1, 0.2, 0.4}},
                {{"particles", 2, "heun"}, {0.2, 0.4, 0.8}}};
     p.cvode_tols = {1e-3, 1e-4, 1e-5, 1e-6};
-    p.budget_seconds = 600.0;
+    p.budget_particle_steps = 1.5e10;  // about 600 s
   } else if (name == "paper") {
     const std::int64_t n = 1000;
     p.points = {cp_point(n, 1e-3, 1e-4), cp_point(n, 1e-3, 1e-5), cp_point(n, 1e-5, 1e-6),
@@ -349,7 +352,9 @@ int run_timestep_preset(const TimestepPreset& preset, const StudyOptions& option
     r.window = false;
     prep_requests.push_back(r);
   }
-  std::vector<DiagnosedRun> preps = execute_all(prep_requests, options.threads, options.quiet);
+  std::vector<DiagnosedRun> preps;
+  if (const auto status = run_stage("timestep", "prep", prep_requests, options, preps, false))
+    return *status;
 
   // 2. Every integrator setting from the prepared state.
   std::vector<PointResult> results;
@@ -379,15 +384,15 @@ int run_timestep_preset(const TimestepPreset& preset, const StudyOptions& option
     // One sampling grid for every setting (a multiple of every step in the presets, so that
     // no step is shortened and the runs can be compared sample by sample): ~400 samples.
     const double grid = kSampleGrid * std::max(1.0, std::round(pr.t_av / 400.0 / kSampleGrid));
-    if (pr.prep.complete()) {
+    if (pr.prep.complete() && !pr.prep.final_xyz.empty()) {
       for (std::size_t k = 0; k < pr.settings.size(); ++k) {
         RunRequest r;
         r.label = pr.point.name + " " + pr.settings[k].label;
         r.scene = scene_toml(pr.point, pr.settings[k], pr.t_eq, pr.t_av, grid);
         r.seed = pr.point.seed;
-        r.init = pr.prep.result.final_state;
+        r.init = pr.prep.final_xyz;
         // The reference (smallest Euler dt, the first setting) is never cut by the budget.
-        r.budget_seconds = k == 0 ? 0.0 : preset.budget_seconds;
+        r.budget = k == 0 ? 0 : budget_for(preset.budget_particle_steps, pr.point.n);
         index.emplace_back(pi, k);
         requests.push_back(std::move(r));
       }
@@ -400,25 +405,13 @@ int run_timestep_preset(const TimestepPreset& preset, const StudyOptions& option
     }
     results.push_back(std::move(pr));
   }
-  // Longest runs first so that the two workers finish together.
-  std::vector<std::size_t> order(requests.size());
-  for (std::size_t k = 0; k < order.size(); ++k)
-    order[k] = k;
-  auto cost = [&](std::size_t q) {
+  // The sweep engine runs the longest first, so that the cores finish together.
+  std::vector<DiagnosedRun> done;
+  if (const auto status = run_stage("timestep", "settings", requests, options, done, true))
+    return *status;
+  for (std::size_t q = 0; q < done.size(); ++q) {
     const auto& [pi, k] = index[q];
-    const auto& pr = results[pi];
-    const double dt = pr.settings[k].dt > 0 ? pr.settings[k].dt : 0.2;
-    return (pr.t_eq + pr.t_av) / dt;
-  };
-  std::stable_sort(order.begin(), order.end(),
-                   [&](std::size_t a, std::size_t b) { return cost(a) > cost(b); });
-  std::vector<RunRequest> sorted;
-  for (std::size_t q : order)
-    sorted.push_back(requests[q]);
-  std::vector<DiagnosedRun> done = execute_all(sorted, options.threads, options.quiet);
-  for (std::size_t j = 0; j < done.size(); ++j) {
-    const auto& [pi, k] = index[order[j]];
-    results[pi].runs[k] = std::move(done[j]);
+    results[pi].runs[k] = std::move(done[q]);
   }
   for (auto& pr : results)
     compute_errors(pr);
@@ -436,7 +429,9 @@ int run_timestep_preset(const TimestepPreset& preset, const StudyOptions& option
     H5Writer w(h5);
     w.attr("/", "study", "timestep");
     w.attr("/", "preset", preset.name);
-    w.attr("/", "timing", "thread CPU seconds of each run on 1 OpenMP thread");
+    w.attr("/", "timing",
+           "cpu_seconds: wall seconds of each run's jamflow run process on 1 thread, one run "
+           "per core");
     for (std::size_t pi = 0; pi < results.size(); ++pi) {
       const PointResult& pr = results[pi];
       char g[32];
@@ -503,7 +498,8 @@ int run_timestep_preset(const TimestepPreset& preset, const StudyOptions& option
       "(the statistical floor: the dynamics is chaotic, so runs decorrelate and differences "
       "below ~2× the floor are not resolved). The energy-balance error is |ratio − 1| "
       "(exact value 1; drift corrected, see studies/stability/README.md). CPU s is the "
-      "thread CPU time of each run on one OpenMP thread (runs execute two at a time); "
+      "wall time of each run's `jamflow run` process on one thread (the sweep engine runs one "
+      "run per core); "
       "particle-steps = N × force evaluations. Stability verdicts as in the stability "
       "study. A target is met when error + 2 × floor ≤ target for a *stable* run.\n\n";
   if (preset.name != "paper") {
@@ -512,8 +508,11 @@ int run_timestep_preset(const TimestepPreset& preset, const StudyOptions& option
         "uses t_eq = t_av with t_eq + t_av ≥ 1/gdot, i.e. strain ≥ 1); the state points "
         "listed below (quick: N = 250, one shear rate each, P = 1e-4 instead of 1e-5; "
         "standard: the P = 1e-5 points at N = 500 and J = 1, 0.3 instead of N = 1000 and "
-        "J ≲ 0.1); one replica. A per-run CPU-time budget of " +
-        short_num(preset.budget_seconds) + " s marks slower runs *incomplete*.\n\n";
+        "J ≲ 0.1); one replica. A per-run budget of " +
+        short_num(preset.budget_particle_steps) +
+        " particle-steps ([run] max_force_evaluations = budget / N; about " +
+        short_num(preset.budget_particle_steps * 40e-9) +
+        " s of one core) marks slower runs *incomplete*.\n\n";
   }
   // Headline: cheapest setting per target.
   {
@@ -571,6 +570,13 @@ int run_timestep_preset(const TimestepPreset& preset, const StudyOptions& option
             (std::isfinite(d) ? short_num(d) : "none in scan");
     }
     md += ".\n\n";
+  }
+  {
+    std::vector<const DiagnosedRun*> all;
+    for (const auto& pr : results)
+      for (const auto& r : pr.runs)
+        all.push_back(&r);
+    md += excluded_section(all);
   }
   md += "## Per state point\n\n";
   for (const auto& pr : results) {

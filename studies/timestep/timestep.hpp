@@ -24,7 +24,9 @@ struct TimestepPreset {
   std::vector<double> euler_dts;                 // the smallest is the reference
   std::vector<RespaScan> respa;
   std::vector<double> cvode_tols;
-  double budget_seconds = 0.0;  // CPU-time limit per run (0: none)
+  // Particle-steps (N x force evaluations) allowed per run but the reference (0: none); over it
+  // a run is "incomplete". 2.5e8 is about 10 s of one core (40 ns each).
+  double budget_particle_steps = 0.0;
   long cvode_max_steps = 0;
 };
 

@@ -7,7 +7,9 @@
 #include <cstring>
 #include <filesystem>
 #include <functional>
+#include <map>
 
+#include "driver/checkpoint.hpp"
 #include "driver/run.hpp"
 #include "lib/error.hpp"
 #include "lib/forces.hpp"
@@ -163,6 +165,81 @@ TEST(Run, DivergingRunKeepsOnlyAPartialFileThatSaysSo) {
   EXPECT_GE(h.read_doubles("/timeseries/time").size(), 1u);  // what was computed is kept
 }
 
+// [run] max_force_evaluations: the run stops at the first sample at which its force evaluations
+// reach the budget (a count: the same sample on every machine), and its file is final, not a
+// checkpoint, with the status saying where it stopped and no summary.
+TEST(Run, ForceEvaluationBudgetStopsAtTheSameSampleAndFinishesTheFile) {
+  TempDir dir;
+  const std::string text = scene_text(60, 0.6, 1e-3, 0.1, 10.0, 40.0);
+  // 10 Euler steps per sample, one force evaluation each (plus the sampling's): 300 stops the
+  // run long before t_eq + t_av = 50 samples.
+  RunSpec spec = spec_of(text, {"run.max_force_evaluations=300"});
+  EXPECT_EQ(spec.max_force_evaluations, 300);
+  RunOptions opt;
+  opt.quiet = true;
+  const ReplicaResult a = run_replica(spec, 3, opt);
+  const ReplicaResult b = run_replica(spec, 3, opt);
+  EXPECT_TRUE(stopped_by_budget(a.status)) << a.status;
+  EXPECT_TRUE(finished_status(a.status));
+  EXPECT_NE(a.status.find("[run] max_force_evaluations = 300"), std::string::npos) << a.status;
+  EXPECT_EQ(a.status, b.status);
+  ASSERT_EQ(a.series.samples.size(), b.series.samples.size());
+  EXPECT_LT(a.series.samples.size(), 50u);
+  EXPECT_GT(a.series.samples.size(), 5u);
+  EXPECT_TRUE(a.summary.values.empty());
+
+  // Through run_and_write: the file is final (not .part), exit status 0, and it reads back.
+  const std::string out = dir.file("budget.h5");
+  spec = spec_of(text, {"run.max_force_evaluations=300", "output.file=\"" + out + "\""});
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(run_and_write(spec, opt), 0);
+  testing::internal::GetCapturedStdout();
+  testing::internal::GetCapturedStderr();
+  ASSERT_TRUE(fs::exists(out));
+  EXPECT_FALSE(fs::exists(out + ".part"));
+  const RunFile f = read_run_file(out);
+  EXPECT_EQ(f.status, a.status);
+  ASSERT_EQ(f.replicas.size(), 1u);
+  EXPECT_EQ(f.replicas[0].status, a.status);
+  EXPECT_EQ(f.replicas[0].series.samples.size(), a.series.samples.size());
+  EXPECT_TRUE(f.replicas[0].summary.values.empty());
+
+  // Without a budget (0, the default) the run completes.
+  EXPECT_EQ(spec_of(text).max_force_evaluations, 0);
+}
+
+// read_run_file gives back what the run computed: series, summary and verdicts, final state.
+TEST(Run, RunFileReadsBackTheRun) {
+  TempDir dir;
+  const std::string out = dir.file("r.h5");
+  RunSpec spec =
+      spec_of(scene_text(60, 0.6, 1e-3, 0.1, 10.0, 40.0), {"output.file=\"" + out + "\""});
+  RunOptions opt;
+  opt.quiet = true;
+  const ReplicaResult r = run_replica(spec, spec.seed, opt);
+  ASSERT_TRUE(write_run_file(spec, {r}, out));
+  for (const bool everything : {true, false}) {
+    const RunFile f = read_run_file(out, everything);
+    EXPECT_EQ(f.status, "complete");
+    EXPECT_EQ(f.scene, spec.scene_text);
+    ASSERT_EQ(f.replicas.size(), 1u);
+    const ReplicaResult& b = f.replicas[0];
+    EXPECT_EQ(b.status, "complete");
+    EXPECT_EQ(b.summary.values.at("sigma_xy"), r.summary.values.at("sigma_xy"));
+    EXPECT_EQ(b.summary.verdicts, r.summary.verdicts);
+    EXPECT_EQ(b.summary.texts, r.summary.texts);
+    if (everything) {
+      ASSERT_EQ(b.series.samples.size(), r.series.samples.size());
+      EXPECT_EQ(b.series.samples.back().sigma_xy, r.series.samples.back().sigma_xy);
+      EXPECT_EQ(b.final_state.size(), r.final_state.size());
+      using Stats = std::map<std::string, double>;
+      EXPECT_EQ(Stats(b.integrator_stats.begin(), b.integrator_stats.end()),
+                Stats(r.integrator_stats.begin(), r.integrator_stats.end()));
+    }
+  }
+}
+
 std::string config_error(const std::string& text, const std::vector<std::string>& sets = {}) {
   try {
     spec_of(text, sets);
@@ -197,6 +274,9 @@ TEST(Run, SceneValidationNamesKeyValueAndRange) {
   EXPECT_NE(config_error(base, {"ensemble.pressure=1e-3"}).find("unknown key [ensemble] pressure"),
             std::string::npos);
   EXPECT_NE(config_error("[system]\nN = 10\n").find("missing section"), std::string::npos);
+  EXPECT_NE(config_error(base, {"run.max_force_evaluations=-5"})
+                .find("[run] max_force_evaluations = -5 is out of range; allowed"),
+            std::string::npos);
 }
 
 TEST(Run, InitFromXyzMustAgreeWithScene) {

@@ -5,7 +5,8 @@
 #  - the analysis in the study is `jamflow analyze hard-sphere` on the collected table: the same
 #    JSON (or the same failure) as running analyze on that table by hand;
 #  - a rerun recomputes nothing; --dry-run of every preset gives a point count and CPU-hours;
-#  - the other studies refuse --slurm with one line (exit 2).
+#  - the studies in stages (timestep, stability, softness, ensemble) count their first stage
+#    with --dry-run and write its job array with --slurm.
 # usage: sweep_studies_test.sh JAMFLOW_BINARY
 set -uo pipefail
 jamflow="$(realpath "$1")"
@@ -62,10 +63,34 @@ for preset in quick standard paper; do
     bad "dry-run $preset created point folders"
 done
 
-"$jamflow" study timestep --preset quick --slurm 2> slurm.err
-status=$?
-[ "$status" -eq 2 ] && [ "$(wc -l < slurm.err)" -eq 1 ] && ok "timestep --slurm: one line, exit 2" ||
-  bad "timestep --slurm: exit $status: $(cat slurm.err)"
+# The studies in stages (timestep, stability, softness: a preparation first; ensemble: constant
+# pressure, then constant volume from its final states) on the sweep engine too: --dry-run
+# counts the first stage and runs nothing; --slurm writes that stage's job array (not
+# submitted) and says to rerun the command for the next. Their quick presets run end to end in
+# test_studies (each run a `jamflow run` process; a rerun computes nothing).
+for study in timestep stability softness ensemble; do
+  case "$study" in
+    ensemble) stage=np ;;
+    *) stage=prep ;;
+  esac
+  line=$("$jamflow" study "$study" --preset quick --dry-run --out "$work/dry-$study" 2>&1)
+  status=$?
+  [ "$status" -eq 0 ] && echo "$line" | grep -q "stage $stage.*points x .* CPU-hours.*next stage" &&
+    ok "$study dry-run: $line" || bad "$study dry-run (exit $status): $line"
+  [ ! -d "$work/dry-$study/$stage/runs/points" ] && ok "$study dry-run runs nothing" ||
+    bad "$study dry-run created point folders"
+  "$jamflow" study "$study" --preset quick --slurm --out "$work/slurm-$study" > slurm.out 2>&1
+  status=$?
+  script="$work/slurm-$study/$stage/runs/sweep.sbatch"
+  if [ "$status" -eq 0 ] && [ -s "$script" ] && grep -q "#SBATCH --array" "$script" &&
+    grep -q "sbatch .*$stage/runs/sweep.sbatch" slurm.out && grep -q "next stage" slurm.out; then
+    ok "$study --slurm writes the $stage stage's array"
+  else
+    bad "$study --slurm (exit $status): $(cat slurm.out)"
+  fi
+  [ -z "$(find "$work/slurm-$study" -name '*.h5*')" ] && ok "$study --slurm runs nothing" ||
+    bad "$study --slurm ran points"
+done
 
 echo "sweep_studies_test: $passed passed, $failed failed"
 [ "$failed" -eq 0 ]

@@ -227,7 +227,14 @@ t_eq = 1
 t_av = 20
 sample_every = 1
 )";
-  const DiagnosedRun d = execute(req);
+  StudyOptions o;
+  o.out_dir = ::testing::TempDir() + "jamflow_rejected_scene";
+  o.quiet = true;
+  std::vector<DiagnosedRun> out;
+  // Nothing to run: the stage returns at once, without the jamflow binary.
+  EXPECT_FALSE(run_stage("test", "only", {req}, o, out, true).has_value());
+  ASSERT_EQ(out.size(), 1u);
+  const DiagnosedRun& d = out.front();
   EXPECT_EQ(d.cls.verdict, Verdict::kNotAvailable);
   EXPECT_NE(d.verdict_text().find("not available"), std::string::npos);
 }

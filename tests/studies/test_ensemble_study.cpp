@@ -12,6 +12,7 @@
 
 #include "lib/h5.hpp"
 #include "studies/study.hpp"
+#include "tests/studies/jamflow_exe.hpp"
 
 namespace jamflow::studies {
 namespace {
@@ -36,11 +37,18 @@ TEST(EnsembleStudy, QuickPresetWritesTablePlotAndSensibleNumbers) {
   const fs::path dir =
       fs::temp_directory_path() / ("jamflow-ensemble-" + std::to_string(::getpid()));
   fs::remove_all(dir);
+  use_test_jamflow();
   StudyOptions opt;
   opt.preset = "quick";
   opt.out_dir = dir.string();
   opt.quiet = true;
   ASSERT_EQ(info->run(opt), 0);
+  // Every run is a point file of the sweep engine; a rerun reads them back, computing nothing.
+  const auto files = point_files(dir.string());
+  EXPECT_GE(files.size(), 2u);
+  opt.no_plots = true;  // the plots of the first run stay
+  ASSERT_EQ(info->run(opt), 0);
+  EXPECT_EQ(point_files(dir.string()), files);
 
   for (const char* f :
        {"table.md", "report.md", "ensemble.h5", "constant_pressure.h5", "constant_volume.h5"}) {

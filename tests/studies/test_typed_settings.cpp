@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 
 #include "studies/diagnostics.hpp"
+#include "sweep/plan.hpp"
 
 namespace jamflow::studies {
 namespace {
@@ -52,6 +54,41 @@ TEST(StudyTypedSettings, EulerAtOneThirdOfAPointOneRunsAtExactlyThatStep) {
     if (k == "steps")
       steps = v;
   EXPECT_EQ(steps, samples * steps_per_sample);
+}
+
+// Through a stage's sweep file (the points of the studies run as `jamflow run` processes) the
+// step is still that double, and the request's seed, start and budget reach the point's scene.
+TEST(StudyTypedSettings, StageSweepKeepsTheExactStepSeedAndBudget) {
+  StatePoint p;
+  p.n = 100;
+  p.constant_pressure = false;
+  p.phi = 0.6;
+  p.gdot = 1e-3;
+  const double dt = 0.1 / 3.0;
+  RunRequest r;
+  r.label = "phi=0.6 euler dt=0.0333";
+  r.scene = scene_toml(p, euler_setting(dt), 0.0, 10.0, 0.5);
+  r.seed = 7;
+  r.budget = 1234;
+  StudyOptions o;
+  o.out_dir = ::testing::TempDir() + "jamflow_stage_sweep";
+  std::filesystem::remove_all(o.out_dir);
+  o.quiet = true;
+  o.dry_run = true;  // writes the sweep file, counts, runs nothing
+  std::vector<DiagnosedRun> out;
+  ASSERT_EQ(run_stage("test", "only", {r}, o, out, true), 0);
+  const sweep::Plan plan = sweep::load_plan(o.out_dir + "/only/sweep.toml");
+  ASSERT_EQ(plan.points.size(), 1u);
+  EXPECT_EQ(plan.points[0].name, "phi_0.6_euler_dt_0.0333");
+  const auto tasks = plan.tasks();
+  ASSERT_EQ(tasks.size(), 1u);
+  EXPECT_EQ(tasks[0].seed, 7u);
+  const RunSpec spec = parse_run_spec(plan.task_scene(tasks[0]));
+  EXPECT_EQ(spec.integrator.number("dt"), dt);
+  EXPECT_EQ(spec.sample_every, commensurate(0.5, dt));
+  EXPECT_EQ(spec.max_force_evaluations, 1234);
+  EXPECT_FALSE(std::filesystem::exists(o.out_dir + "/only/runs/points"));
+  std::filesystem::remove_all(o.out_dir);
 }
 
 }  // namespace

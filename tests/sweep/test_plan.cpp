@@ -185,6 +185,30 @@ names_from = ["shear.rate"]
       std::string::npos);
 }
 
+// [sweep] names: one name per point, in point order (the studies name their runs so).
+TEST(SweepPlan, NamesGivesEachPointItsName) {
+  const Plan p = parse(R"([sweep]
+names = ["prep run", "other/run"]
+[sweep.zip]
+"shear.rate" = [1e-3, 1e-3]
+"run.t_av" = [100.0, 200.0]
+)");
+  ASSERT_EQ(p.points.size(), 2u);
+  EXPECT_EQ(p.points[0].name, "prep_run");  // file-name characters only
+  EXPECT_EQ(p.points[1].name, "other_run");
+  EXPECT_NE(error_of("[sweep]\nnames = [\"a\"]\n[sweep.zip]\n\"shear.rate\" = [1e-3, 1e-4]\n")
+                .find("[sweep] names has 1 names for 2 points; allowed one name per point"),
+            std::string::npos);
+  EXPECT_NE(error_of("[sweep]\nnames = [\"a\", \"a\"]\n[sweep.zip]\n\"shear.rate\" = [1e-3, "
+                     "1e-4]\n")
+                .find("both named 'a'"),
+            std::string::npos);
+  EXPECT_NE(error_of("[sweep]\nnames = [\"a\"]\nnames_from = [\"shear.rate\"]\n[sweep.zip]\n"
+                     "\"shear.rate\" = [1e-3]\n")
+                .find("allowed one of them"),
+            std::string::npos);
+}
+
 TEST(SweepPlan, AWholeSectionCanBeAnAxis) {
   const Plan p = parse(R"([sweep]
 names_from = ["system.N"]
