@@ -562,6 +562,8 @@ SoftComparison compare_soft(const std::vector<ShearPoint>& points, const OlssonT
     for (std::size_t k = 0; k < 10; ++k)
       c.fit.params[k].error = c.fit.spread([k](const SoftLaw& l) { return l.values()[k]; });
     c.fit.alpha.error = c.fit.spread([](const SoftLaw& l) { return 1.0 / l.x; });
+    c.fit.resolution_notes = explain_resolution(
+        c.fit, as_granular(points, sigma, pressure, c.fit.law), JointSoftOptions{}.y_target);
   } else {
     c.fit.samples.clear();
   }

@@ -522,9 +522,13 @@ Json joint_soft_plot_data(const JointSoftFit& f, const YieldComparison* yield) {
   for (int k = 0; k <= 40; ++k) {
     const double d = 1e-4 * std::pow(10.0, 3.0 * k / 40.0);  // 1e-4 .. 1e-1
     const double phi = f.law.phi_j0 + d;
+    const double v = f.law.sigma_yield(phi);
+    const double e = f.spread([phi](const SoftLaw& l) { return l.sigma_yield(phi); });
+    if (!std::isfinite(v) || !std::isfinite(e))
+      continue;  // e.g. a negative c_phi: no yield stress to draw
     dphi.push_back(d);
-    sy.push_back(f.law.sigma_yield(phi));
-    sye.push_back(f.spread([phi](const SoftLaw& l) { return l.sigma_yield(phi); }));
+    sy.push_back(v);
+    sye.push_back(e);
   }
   j["yield_curve_dphi"] = Json(dphi);
   j["yield_curve_sigma"] = Json(sy);

@@ -725,11 +725,25 @@ JointSoftFit fit_soft_joint(const std::vector<GranularPoint>& points,
   f.alpha = {1.0 / f.law.x, f.samples.empty()
                                 ? f.params[2].error / (f.law.x * f.law.x)
                                 : f.spread([](const SoftLaw& l) { return 1.0 / l.x; })};
-  if (f.params[2].error > options.y_target)
-    f.resolution_notes.push_back(resolution_note(f, false, phi_err, options.y_target));
-  if (f.params[7].error > options.y_target)
-    f.resolution_notes.push_back(resolution_note(f, true, mu_err, options.y_target));
+  for (auto& note : explain_resolution(f, points, options.y_target))
+    f.resolution_notes.push_back(std::move(note));
   return f;
+}
+
+std::vector<std::string> explain_resolution(const JointSoftFit& f,
+                                            const std::vector<GranularPoint>& points,
+                                            double target) {
+  std::vector<double> phi_err, mu_err;
+  for (const auto& g : points) {
+    phi_err.push_back(g.phi_err);
+    mu_err.push_back(g.mu_err);
+  }
+  std::vector<std::string> notes;
+  if (f.params[2].error > target)
+    notes.push_back(resolution_note(f, false, phi_err, target));
+  if (f.params[7].error > target)
+    notes.push_back(resolution_note(f, true, mu_err, target));
+  return notes;
 }
 
 YieldComparison compare_yield(const JointSoftFit& fit, const std::vector<ShearPoint>& cv) {
@@ -749,7 +763,7 @@ YieldComparison compare_yield(const JointSoftFit& fit, const std::vector<ShearPo
                    fit.spread([&](const SoftLaw& l) { return l.sigma_at(phi, gdot); })};
     y.sigma_yield = {fit.law.sigma_yield(phi),
                      fit.spread([&](const SoftLaw& l) { return l.sigma_yield(phi); })};
-    if (!std::isfinite(y.sigma_law.value))
+    if (!std::isfinite(y.sigma_law.value) || !std::isfinite(y.sigma_yield.value))
       continue;
     y.pull = (y.sigma.value - y.sigma_law.value) / std::hypot(y.sigma.error, y.sigma_law.error);
     sum += y.pull * y.pull;

@@ -92,6 +92,12 @@ JointSoftFit fit_soft_joint(const std::vector<GranularPoint>& points,
                             const JointSoftOptions& options,
                             const std::optional<SoftLaw>& start = std::nullopt);
 
+// Why x or y is not resolved to `target` given the fit's errors (empty when both are): the
+// notes fit_soft_joint attaches, for callers that replace the errors afterwards.
+std::vector<std::string> explain_resolution(const JointSoftFit& f,
+                                            const std::vector<GranularPoint>& points,
+                                            double target);
+
 // Constant-volume points above phi_J0 against the joint law: the measured stress at each
 // (phi, gdot), the law's stress there and its yield stress sigma_Y(phi), with bootstrap errors.
 struct YieldPoint {

@@ -41,18 +41,25 @@ def joint_figures(s):
         w = 1 / mu_err[sel] ** 2
         mj = np.sum(w * (mu[sel] - C_mu * J[sel] ** b_mu)) / np.sum(w)
         axes[1][1].errorbar([p], [mj], yerr=[1 / np.sqrt(np.sum(w))], fmt="o", color=c)
-    axes[0][0].plot(jj, C_phi * jj ** b_phi, "k-", label=rf"$b_\varphi = {b_phi:.3f}$")
-    axes[0][1].plot(jj, C_mu * jj ** b_mu, "k-", label=rf"$b_\mu = {b_mu:.3f}$")
+    err = s["joint"]["law_err"]
+    # Beside each fitted value its bootstrap error and the paper's (Table 2 at N -> infinity).
+    axes[0][0].plot(jj, C_phi * jj ** b_phi, "k-",
+                    label=rf"$b_\varphi = {b_phi:.3f} \pm {err[4]:.3f}$ (paper 0.391), "
+                          rf"$C_\varphi = {C_phi:.4f} \pm {err[3]:.4f}$ (0.0683)")
+    axes[0][1].plot(jj, C_mu * jj ** b_mu, "k-",
+                    label=rf"$b_\mu = {b_mu:.3f} \pm {err[9]:.3f}$ (paper 0.346), "
+                          rf"$C_\mu = {C_mu:.3f} \pm {err[8]:.3f}$ (0.347)")
     axes[0][0].set(xscale="log", yscale="log", xlabel=r"$J$", ylabel=r"$\varphi_J(P) - \varphi$",
                    title="(a)")
     axes[0][1].set(xscale="log", yscale="log", xlabel=r"$J$", ylabel=r"$\mu - \mu_J(P)$",
                    title="(b)")
     pp = np.logspace(np.log10(pressures.min()) - 0.3, np.log10(pressures.max()) + 0.3, 100)
-    err = s["joint"]["law_err"]
     axes[1][0].plot(pp, phi_j0 + c_phi * pp ** x, "k-",
-                    label=rf"$x = {x:.3f} \pm {err[2]:.3f}$ (paper 0.75)")
+                    label=rf"$x = {x:.3f} \pm {err[2]:.3f}$ (paper 0.75), "
+                          rf"$\varphi_J(0) = {phi_j0:.4f} \pm {err[0]:.4f}$ (0.6474)")
     axes[1][1].plot(pp, mu_j0 - c_mu * pp ** y, "k-",
-                    label=rf"$y = {y:.3f} \pm {err[7]:.3f}$ (paper 0.56)")
+                    label=rf"$y = {y:.3f} \pm {err[7]:.3f}$ (paper 0.56), "
+                          rf"$\mu_J(0) = {mu_j0:.3f} \pm {err[5]:.3f}$ (0.108)")
     axes[1][0].set(xscale="log", xlabel=r"$P$", ylabel=r"$\varphi_J(P)$", title="(c)")
     axes[1][1].set(xscale="log", xlabel=r"$P$", ylabel=r"$\mu_J(P)$", title="(d)")
     for ax in list(axes[0]) + list(axes[1]):
@@ -69,7 +76,8 @@ def joint_figures(s):
     sy = np.asarray(s["joint"]["yield_curve_sigma"])
     se = np.asarray(s["joint"]["yield_curve_sigma_err"])
     ok = sy > 0
-    ax.plot(d[ok], sy[ok], "k-", label=rf"law $\sigma_Y$, $\alpha = 1/x = {1 / x:.2f}$ (paper 1.33)")
+    ax.plot(d[ok], sy[ok], "k-",
+            label=rf"law $\sigma_Y$, $\alpha = 1/x = {1 / x:.2f} \pm {err[2] / x ** 2:.2f}$ (paper 1.33)")
     band = ok & (se < sy)  # a band wider than the value has no lower edge on a log axis
     ax.fill_between(d[band], sy[band] - se[band], sy[band] + se[band], color="0.8",
                     label="bootstrap band (where narrower than the value)")

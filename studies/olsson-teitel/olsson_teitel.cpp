@@ -130,9 +130,10 @@ int report(const VolumePreset& preset, const SweepStudy& run, const StudyOptions
   const double best_spread = best.contains("quality_bootstrap_spread")
                                  ? best.at("quality_bootstrap_spread").as_number()
                                  : std::nan("");
-  const Quality q_at = quality_of(at.at("quality"), at.at("quality").contains("error")
-                                                        ? at.at("quality").at("error").as_number()
-                                                        : std::nan(""));
+  const auto& at_q = at.at("quality");
+  const Quality q_at = quality_of(at_q, at_q.contains("error") && at_q.at("error").is_number()
+                                            ? at_q.at("error").as_number()
+                                            : std::nan(""));
   const Quality q_best = quality_of(best.at("quality"), best_spread);
   Quality q_soft;
   if (result.contains("soft"))
