@@ -161,6 +161,15 @@ int analyze_main(const std::vector<std::string>& args) {
                    "pull threshold of the hard-sphere envelope used for the P -> 0 shape");
   soft->add_option("--hs-params", hs_params,
                    "b_phi:C_phi:b_mu:C_mu: fixed P -> 0 shape instead of each N's hard-sphere fit");
+  int soft_bootstrap = JointSoftOptions{}.bootstrap;
+  std::uint64_t soft_seed = JointSoftOptions{}.seed;
+  std::vector<std::string> yield_files;
+  soft->add_option("--bootstrap", soft_bootstrap,
+                   "parametric-bootstrap resamples of the joint fit (default 200; 0 or >= 10)");
+  soft->add_option("--seed", soft_seed, "bootstrap random seed");
+  soft->add_option("--yield-data", yield_files,
+                   "constant-volume tables or run files to compare with the joint law's yield "
+                   "stress (points above phi_J0)");
   CLI::App* ot = app.add_subcommand(
       "olsson-teitel",
       "Houdayer–Hartmann collapse quality of the two-branch scaling; plots Fig. 9");
@@ -228,6 +237,16 @@ int analyze_main(const std::vector<std::string>& args) {
         s.source = "--hs-params (taken as exact)";
         o.fixed_shape = s;
       }
+      // The command line keeps the joint fit when the per-pressure collapse cannot be done.
+      o.require_collapse = false;
+      o.joint.bootstrap = soft_bootstrap;
+      o.joint.seed = soft_seed;
+      if (soft_bootstrap < 0 || (soft_bootstrap > 0 && soft_bootstrap < 10)) {
+        throw InputError("--bootstrap " + std::to_string(soft_bootstrap) +
+                         " (allowed: 0, or 10 and more resamples)");
+      }
+      if (!yield_files.empty())
+        o.yield_data = read_shear(yield_files);
       auto data = read_granular(files);
       SoftResult r = analyze_soft(data, o);
       for (const auto& w : r.warnings)

@@ -299,6 +299,13 @@ ShearPoint shear_from_row(const CsvTable& t, std::size_t r, TableForm form) {
                    "sigma_xy", s.sigma);
     check_positive(s.source + ": column 'sigma_xy_err'", "sigma_xy_err", s.sigma_err);
     s.set = set_label_volume(s.n, s.phi);
+    // A collected sweep table carries the measured pressure; other tables may not.
+    const int cp = t.column("pressure"), ce = t.column("pressure_err");
+    if (cp >= 0 && ce >= 0 && !t.rows[r][static_cast<std::size_t>(cp)].empty() &&
+        !t.rows[r][static_cast<std::size_t>(ce)].empty()) {
+      s.pressure = field_number(t, r, "pressure");
+      s.pressure_err = field_number(t, r, "pressure_err");
+    }
   } else {
     GranularPoint g = granular_from_row(t, r);
     check_positive(s.source + ": column 'mu' (the collapse works with log sigma_xy = mu P)", "mu",
@@ -793,6 +800,8 @@ std::vector<ShearPoint> read_shear(const std::vector<std::string>& paths) {
       check_positive(where, "sigma_xy_err", p.sigma_err);
       if (s.ensemble == "constant_volume") {
         p.set = set_label_volume(s.n, s.phi);
+        p.pressure = s.pressure;
+        p.pressure_err = s.pressure_err;
       } else {
         check_positive(where, "imposed_pressure", s.imposed_pressure);
         p.set = set_label_pressure(s.n, s.imposed_pressure);
@@ -874,6 +883,15 @@ std::vector<ShearPoint> merge_repeats(std::vector<ShearPoint> points) {
         phi_sum += points[i].phi;
       }
       std::tie(m.sigma, m.sigma_err) = weighted_mean(sigmas);
+      std::vector<std::pair<double, double>> pressures;
+      for (std::size_t i : idx) {
+        if (points[i].pressure > 0.0 && points[i].pressure_err > 0.0)
+          pressures.emplace_back(points[i].pressure, points[i].pressure_err);
+      }
+      if (pressures.size() == idx.size())
+        std::tie(m.pressure, m.pressure_err) = weighted_mean(pressures);
+      else
+        m.pressure = m.pressure_err = 0.0;
       // Constant volume: identical phi; constant pressure: the measured phi of
       // repeated runs, averaged (its error is neglected by the collapse).
       m.phi = phi_sum / static_cast<double>(idx.size());

@@ -29,6 +29,9 @@ struct ShearPoint {
   double phi = 0.0;
   double shear_rate = 0.0;
   double sigma = 0.0, sigma_err = 0.0;  // sigma_xy
+  // The measured pressure (constant volume), 0 when the data do not give it; the soft
+  // granular rheology's comparison on the same points needs it.
+  double pressure = 0.0, pressure_err = 0.0;
   // The curve the point belongs to: constant volume -> "N=..,phi=..";
   // constant pressure -> "N=..,P=..". The collapse measure never compares a
   // point with its own curve.

@@ -219,6 +219,7 @@ CollapseFit optimize_collapse(const HoudayerHartmann& hh, const CollapseParams& 
   const auto& pts = hh.points();
   std::vector<double> sigma(pts.size());
   std::vector<std::array<double, 3>> samples;
+  std::vector<double> s_values;
   for (int b = 0; b < options.bootstrap; ++b) {
     for (std::size_t i = 0; i < pts.size(); ++i) {
       sigma[i] = pts[i].sigma * std::exp(pts[i].sigma_err / pts[i].sigma * normal(rng));
@@ -230,8 +231,10 @@ CollapseFit optimize_collapse(const HoudayerHartmann& hh, const CollapseParams& 
       continue;
     double vb = 0.0;
     CollapseParams pb = nelder_mead(fb, fit.best, 1, vb);
-    if (vb < kPenalty)
+    if (vb < kPenalty) {
       samples.push_back({pb.phi_j, pb.alpha, pb.beta});
+      s_values.push_back(vb);
+    }
   }
   fit.bootstrap_used = static_cast<int>(samples.size());
   if (samples.size() < 10 || 5 * samples.size() < 4 * static_cast<std::size_t>(options.bootstrap)) {
@@ -247,6 +250,15 @@ CollapseFit optimize_collapse(const HoudayerHartmann& hh, const CollapseParams& 
     for (const auto& s : samples)
       var += (s[k] - mean) * (s[k] - mean);
     sd[k] = std::sqrt(var / static_cast<double>(samples.size() - 1));
+  }
+  {
+    double mean = 0.0, var = 0.0;
+    for (double v : s_values)
+      mean += v;
+    mean /= static_cast<double>(s_values.size());
+    for (double v : s_values)
+      var += (v - mean) * (v - mean);
+    fit.s_spread = std::sqrt(var / static_cast<double>(s_values.size() - 1));
   }
   fit.phi_j = {fit.best.phi_j, sd[0]};
   fit.alpha = {fit.best.alpha, sd[1]};
@@ -294,6 +306,16 @@ OlssonTeitelResult analyze_olsson_teitel(const std::vector<ShearPoint>& points,
                                 "overlap in scaled variables");
   }
   r.best = optimize_collapse(hh, options.start.value_or(options.at), options, options.seed);
+  if (options.soft) {
+    try {
+      r.soft = compare_soft(points, options);
+      for (const auto& note : r.soft->fit.resolution_notes)
+        r.warnings.push_back("soft rheology on these points: " + note);
+    } catch (const AnalysisError& e) {
+      r.soft_skipped = e.what();
+      r.warnings.push_back("soft granular rheology not fitted to these points: " + r.soft_skipped);
+    }
+  }
 
   // Sub-ranges, fixed once from the global optimum.
   std::vector<double> deltas, log_rates;
@@ -359,6 +381,122 @@ OlssonTeitelResult analyze_olsson_teitel(const std::vector<ShearPoint>& points,
     r.subsets.push_back(std::move(sub));
   }
   return r;
+}
+
+bool SoftComparison::acceptable() const {
+  return used > 0 && s <= 1.0 + 3.0 * std::sqrt(2.0 / static_cast<double>(used));
+}
+
+namespace {
+
+std::vector<GranularPoint> as_granular(const std::vector<ShearPoint>& points,
+                                       const std::vector<double>& sigma,
+                                       const std::vector<double>& pressure, const SoftLaw& slope) {
+  std::vector<GranularPoint> out;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const ShearPoint& s = points[i];
+    GranularPoint g;
+    g.n = s.n;
+    g.pressure = pressure[i];
+    g.shear_rate = s.shear_rate;
+    g.j = s.shear_rate / pressure[i];
+    g.phi = s.phi;
+    const double rel_p = s.pressure_err / s.pressure;
+    g.phi_err = std::max(std::fabs(slope.dphi_dlnp(pressure[i], s.shear_rate)) * rel_p, 1e-7);
+    g.mu = sigma[i] / pressure[i];
+    g.mu_err = g.mu * std::hypot(s.sigma_err / s.sigma, rel_p);
+    g.source = s.source;
+    out.push_back(g);
+  }
+  return out;
+}
+
+// Mean squared pull in ln sigma of the law at the points; the law's stress per point.
+double soft_quality(const SoftLaw& law, const std::vector<ShearPoint>& points,
+                    const std::vector<double>& sigma, std::size_t& used,
+                    std::vector<double>* per_point) {
+  double sum = 0.0;
+  used = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const double s = law.sigma_at(points[i].phi, points[i].shear_rate);
+    if (per_point)
+      per_point->push_back(s);
+    if (!(s > 0.0))
+      continue;
+    sum +=
+        std::pow((std::log(sigma[i]) - std::log(s)) / (points[i].sigma_err / points[i].sigma), 2);
+    ++used;
+  }
+  return used > 0 ? sum / static_cast<double>(used) : std::numeric_limits<double>::infinity();
+}
+
+}  // namespace
+
+SoftComparison compare_soft(const std::vector<ShearPoint>& points, const OlssonTeitelOptions& o) {
+  for (const auto& p : points) {
+    if (!(p.pressure > 0.0) || !(p.pressure_err > 0.0)) {
+      throw InsufficientDataError(p.source +
+                                  ": no measured pressure (columns pressure, pressure_err); "
+                                  "the soft granular rheology needs P at every point");
+    }
+  }
+  std::vector<double> sigma, pressure;
+  for (const auto& p : points) {
+    sigma.push_back(p.sigma);
+    pressure.push_back(p.pressure);
+  }
+  JointSoftOptions jo;
+  jo.bootstrap = 0;
+  SoftComparison c;
+  // Two rounds: the phi errors depend on the law's slope.
+  c.fit = fit_soft_joint(as_granular(points, sigma, pressure, SoftLaw{}), jo);
+  c.fit = fit_soft_joint(as_granular(points, sigma, pressure, c.fit.law), jo, c.fit.law);
+  c.total = points.size();
+  c.s = soft_quality(c.fit.law, points, sigma, c.used, &c.sigma_law);
+  if (c.used == 0)
+    throw FitError("the fitted soft granular rheology has no pressure root at any point");
+
+  std::mt19937_64 rng(o.seed + 1);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::vector<double> s_values;
+  std::vector<double> sb(points.size()), pb(points.size());
+  for (int b = 0; b < o.bootstrap; ++b) {
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      sb[i] = points[i].sigma * std::exp(points[i].sigma_err / points[i].sigma * normal(rng));
+      pb[i] =
+          points[i].pressure * std::exp(points[i].pressure_err / points[i].pressure * normal(rng));
+    }
+    try {
+      const JointSoftFit f = fit_soft_joint(as_granular(points, sb, pb, c.fit.law), jo, c.fit.law);
+      std::size_t used = 0;
+      const double s = soft_quality(f.law, points, sb, used, nullptr);
+      if (used == 0)
+        continue;
+      c.fit.samples.push_back(f.law.values());
+      s_values.push_back(s);
+    } catch (const AnalysisError&) {
+      // a resample without a converged fit is left out and counted
+    }
+  }
+  c.bootstrap_used = static_cast<int>(s_values.size());
+  c.fit.bootstrap_requested = o.bootstrap;
+  if (s_values.size() >= 10) {
+    double mean = 0.0, var = 0.0;
+    for (double v : s_values)
+      mean += v;
+    mean /= static_cast<double>(s_values.size());
+    for (double v : s_values)
+      var += (v - mean) * (v - mean);
+    c.s_spread = std::sqrt(var / static_cast<double>(s_values.size() - 1));
+    for (std::size_t k = 0; k < 10; ++k)
+      c.fit.params[k].error = c.fit.spread([k](const SoftLaw& l) { return l.values()[k]; });
+    c.fit.alpha.error = c.fit.spread([](const SoftLaw& l) { return 1.0 / l.x; });
+    c.fit.resolution_notes = explain_resolution(
+        c.fit, as_granular(points, sigma, pressure, c.fit.law), JointSoftOptions{}.y_target);
+  } else {
+    c.fit.samples.clear();
+  }
+  return c;
 }
 
 }  // namespace jamflow::analysis

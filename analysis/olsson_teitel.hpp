@@ -18,6 +18,7 @@
 #include "analysis/collapse.hpp"
 #include "analysis/data.hpp"
 #include "analysis/fit.hpp"
+#include "analysis/soft.hpp"
 
 namespace jamflow::analysis {
 
@@ -64,6 +65,9 @@ struct OlssonTeitelOptions {
   std::optional<double> split_delta;  // near/far split in |phi - phi_J| (default: median)
   std::optional<double> split_gdot;   // slow/fast split in gdot (default: geometric median)
   std::size_t min_subset_points = 12;
+  // Fit the soft granular rheology to the same points and report its quality (needs the
+  // measured pressure of every point).
+  bool soft = true;
 };
 
 struct CollapseFit {
@@ -71,7 +75,29 @@ struct CollapseFit {
   Measured phi_j, alpha, beta;  // errors: parametric-bootstrap standard deviations
   CollapseQuality quality;
   int bootstrap_used = 0;
+  double s_spread = 0.0;  // standard deviation of S at the resamples' optima
 };
+
+// The soft granular rheology (soft.hpp) fitted to the same constant-volume points. Each point
+// (phi, gdot imposed; P and sigma_xy measured) becomes a granular point (P, J = gdot/P, phi,
+// mu = sigma/P); the error of phi is the law's d phi/d ln P at fixed gdot times the relative
+// error of P (the imposed phi is exact, the measured P is not; the slope comes from the law
+// of the previous round, two rounds from the paper's values). Its quality is the same kind of
+// number as S: the mean over points of ((ln sigma - ln sigma_law(phi, gdot)) / dln sigma)^2,
+// sigma_law solved from phi(P, gdot/P) = phi. Errors: parametric bootstrap, each sigma and P
+// redrawn log-normally within its error and the law refitted from the optimum.
+struct SoftComparison {
+  JointSoftFit fit;                 // params carry the bootstrap errors
+  double s = 0.0;                   // mean squared pull in ln sigma
+  double s_spread = 0.0;            // bootstrap standard deviation of s
+  std::size_t used = 0, total = 0;  // points with a law stress (a pressure root)
+  int bootstrap_used = 0;
+  std::vector<double> sigma_law;  // per input point (NaN: no root)
+  bool acceptable() const;        // the same criterion as CollapseQuality
+};
+
+// Fails with InsufficientDataError when a point has no measured pressure.
+SoftComparison compare_soft(const std::vector<ShearPoint>& points, const OlssonTeitelOptions& o);
 
 struct CollapseSubset {
   std::string name, description;
@@ -95,6 +121,8 @@ struct OlssonTeitelResult {
   CollapseFit best;
   std::vector<CollapseSubset> subsets;
   double split_delta = 0.0, split_gdot = 0.0;
+  std::optional<SoftComparison> soft;
+  std::string soft_skipped;
   std::vector<std::string> warnings;
 };
 

@@ -508,6 +508,140 @@ Json hard_sphere_plot_data(const HardSphereResult& r) {
 
 // --- soft ----------------------------------------------------------------------
 
+namespace {
+
+// The paper's values for the joint law: x, y (Sec. V A), 1/x, and Table 2's N -> infinity
+// hard-sphere parameters (NaN: the paper gives no number).
+double paper_joint(std::size_t k) {
+  static const double v[10] = {0.6474, std::nan(""), 0.75, 0.0683, 0.391,
+                               0.108,  std::nan(""), 0.56, 0.347,  0.346};
+  return v[k];
+}
+
+}  // namespace
+
+Json joint_soft_json(const JointSoftFit& f, const YieldComparison* yield) {
+  Json j = Json::object();
+  j["formula"] =
+      "phi = phi_J0 + c_phi P^x - C_phi J^b_phi, mu = mu_J0 - c_mu P^y + C_mu J^b_mu, fitted "
+      "over every pressure and J at once";
+  for (std::size_t k = 0; k < 10; ++k)
+    j[SoftLaw::names()[k]] = measured_json(f.params[k]);
+  j["alpha"] = measured_json(f.alpha);
+  j["fit_phi"] = fit_summary(f.phi_fit);
+  j["fit_mu"] = fit_summary(f.mu_fit);
+  Json b = Json::object();
+  b["requested"] = f.bootstrap_requested;
+  b["used"] = static_cast<std::int64_t>(f.samples.size());
+  b["noise_scale_phi"] = f.noise_scale_phi;
+  b["noise_scale_mu"] = f.noise_scale_mu;
+  j["bootstrap"] = b;
+  j["points"] = static_cast<std::int64_t>(f.points);
+  j["pressures"] = Json(f.pressures);
+  j["resolution_notes"] = strings_json(f.resolution_notes);
+  if (yield) {
+    Json y = Json::object();
+    std::vector<double> phi, gdot, sig, sige, law, lawe, sy, sye, pull;
+    for (const auto& p : yield->points) {
+      phi.push_back(p.phi);
+      gdot.push_back(p.gdot);
+      sig.push_back(p.sigma.value);
+      sige.push_back(p.sigma.error);
+      law.push_back(p.sigma_law.value);
+      lawe.push_back(p.sigma_law.error);
+      sy.push_back(p.sigma_yield.value);
+      sye.push_back(p.sigma_yield.error);
+      pull.push_back(p.pull);
+    }
+    y["phi"] = Json(phi);
+    y["gdot"] = Json(gdot);
+    y["sigma_xy"] = Json(sig);
+    y["sigma_xy_err"] = Json(sige);
+    y["sigma_law"] = Json(law);
+    y["sigma_law_err"] = Json(lawe);
+    y["sigma_yield"] = Json(sy);
+    y["sigma_yield_err"] = Json(sye);
+    y["pull"] = Json(pull);
+    y["points_at_or_below_phi_J0"] = static_cast<std::int64_t>(yield->below);
+    y["mean_square_pull"] = yield->mean_square_pull;
+    j["yield_data"] = y;
+  }
+  return j;
+}
+
+std::string joint_soft_markdown(const JointSoftFit& f, const YieldComparison* yield) {
+  std::ostringstream md;
+  md << "Joint fit over " << f.points << " points at " << f.pressures.size()
+     << " pressures: phi = phi_J0 + c_phi P^x - C_phi J^b_phi, mu = mu_J0 - c_mu P^y + C_mu "
+        "J^b_mu. Errors: standard deviation over "
+     << f.samples.size() << " of " << f.bootstrap_requested
+     << " parametric-bootstrap resamples (noise scaled by sqrt(max(1, chi2/dof)) = "
+     << fmt(f.noise_scale_phi, "%.2f") << " for phi, " << fmt(f.noise_scale_mu, "%.2f")
+     << " for mu). chi2/dof: phi " << fmt(f.phi_fit.reduced_chi2(), "%.2f") << " (" << f.phi_fit.dof
+     << " dof), mu " << fmt(f.mu_fit.reduced_chi2(), "%.2f") << ".\n\n";
+  md << "| parameter | joint fit | paper | difference (sigma) |\n|---|---|---|---|\n";
+  for (std::size_t k = 0; k < 10; ++k) {
+    const double ref = paper_joint(k);
+    md << "| " << SoftLaw::names()[k] << " | " << format_measured(f.params[k]) << " | "
+       << (std::isfinite(ref) ? fmt(ref) : "-") << " | "
+       << (std::isfinite(ref) ? pull_md(f.params[k].value, f.params[k].error, ref) : "") << " |\n";
+  }
+  md << "| alpha = 1/x (yield stress) | " << format_measured(f.alpha) << " | 1.33 | "
+     << pull_md(f.alpha.value, f.alpha.error, 1.33) << " |\n\n";
+  md << "Paper values of phi_J0, C_phi, b_phi, mu_J0, C_mu, b_mu: Table 2 at N -> infinity.\n\n";
+  for (const auto& n : f.resolution_notes)
+    md << "- " << n << "\n";
+  if (!f.resolution_notes.empty())
+    md << "\n";
+  if (yield) {
+    md << "Yield stress: " << yield->points.size()
+       << " constant-volume points above phi_J0 against the law at the same (phi, gdot), and "
+          "the law's sigma_Y(phi) (gdot -> 0); "
+       << yield->below << " points at or below phi_J0 not compared. Mean squared pull "
+       << fmt(yield->mean_square_pull, "%.3g") << ".\n\n";
+    if (!yield->points.empty()) {
+      md << "| phi | gdot | sigma_xy | law at (phi, gdot) | pull | sigma_Y(phi) |\n"
+            "|---|---|---|---|---|---|\n";
+      for (const auto& p : yield->points) {
+        md << "| " << fmt(p.phi) << " | " << fmt(p.gdot, "%.3g") << " | "
+           << format_measured(p.sigma) << " | " << format_measured(p.sigma_law) << " | "
+           << fmt(p.pull, "%+.1f") << " | " << format_measured(p.sigma_yield) << " |\n";
+      }
+      md << "\n";
+    }
+  }
+  return md.str();
+}
+
+Json joint_soft_plot_data(const JointSoftFit& f, const YieldComparison* yield) {
+  Json j = Json::object();
+  const auto v = f.law.values();
+  j["law"] = Json(std::vector<double>(v.begin(), v.end()));
+  std::vector<double> err;
+  for (const auto& m : f.params)
+    err.push_back(m.error);
+  j["law_err"] = Json(err);
+  if (yield)
+    j["yield"] = joint_soft_json(f, yield).at("yield_data");
+  // The law's sigma_Y on a grid above phi_J0, with its bootstrap band.
+  std::vector<double> dphi, sy, sye;
+  for (int k = 0; k <= 40; ++k) {
+    const double d = 1e-4 * std::pow(10.0, 3.0 * k / 40.0);  // 1e-4 .. 1e-1
+    const double phi = f.law.phi_j0 + d;
+    const double v = f.law.sigma_yield(phi);
+    const double e = f.spread([phi](const SoftLaw& l) { return l.sigma_yield(phi); });
+    if (!std::isfinite(v) || !std::isfinite(e))
+      continue;  // e.g. a negative c_phi: no yield stress to draw
+    dphi.push_back(d);
+    sy.push_back(v);
+    sye.push_back(e);
+  }
+  j["yield_curve_dphi"] = Json(dphi);
+  j["yield_curve_sigma"] = Json(sy);
+  j["yield_curve_sigma_err"] = Json(sye);
+  return j;
+}
+
 Json soft_json(const SoftResult& r, const SoftOptions& o, const std::vector<std::string>& inputs) {
   Json j = Json::object();
   j["analysis"] = "soft";
@@ -520,6 +654,15 @@ Json soft_json(const SoftResult& r, const SoftOptions& o, const std::vector<std:
   Json sizes = Json::object();
   for (const auto& s : r.sizes) {
     Json js = Json::object();
+    if (s.joint)
+      js["joint"] = joint_soft_json(*s.joint, s.yield_data ? &*s.yield_data : nullptr);
+    else
+      js["joint_skipped"] = s.joint_skipped;
+    if (!s.collapse_skipped.empty()) {
+      js["collapse_skipped"] = s.collapse_skipped;
+      sizes[std::to_string(s.n)] = js;
+      continue;
+    }
     js["phi_J0"] = measured_json(s.phi_fit.at(0));
     js["c_phi"] = measured_json(s.phi_fit.at(1));
     js["x"] = measured_json(s.phi_fit.at(2));
@@ -576,6 +719,16 @@ std::string soft_markdown(const SoftResult& r, const SoftOptions& o,
         "all pressures and enters the fits below as correlations.\n\n";
   for (const auto& s : r.sizes) {
     md << "## N = " << s.n << "\n\n";
+    md << "### Joint fit over every pressure and J\n\n";
+    if (s.joint)
+      md << joint_soft_markdown(*s.joint, s.yield_data ? &*s.yield_data : nullptr);
+    else
+      md << "Not done: " << s.joint_skipped << "\n\n";
+    md << "### Per-pressure collapse (the paper's route)\n\n";
+    if (!s.collapse_skipped.empty()) {
+      md << "Not done: " << s.collapse_skipped << "\n\n";
+      continue;
+    }
     md << "Shape (" << s.shape.source
        << "): C_phi = " << format_measured({s.shape.c_phi, std::sqrt(s.shape.cov_phi[0])})
        << ", b_phi = " << format_measured({s.shape.b_phi, std::sqrt(s.shape.cov_phi[3])})
@@ -629,6 +782,12 @@ Json soft_plot_data(const SoftResult& r) {
     js["phi_err"] = Json(phi_err);
     js["mu"] = Json(mu);
     js["mu_err"] = Json(mu_err);
+    if (s.joint)
+      js["joint"] = joint_soft_plot_data(*s.joint, s.yield_data ? &*s.yield_data : nullptr);
+    if (!s.collapse_skipped.empty()) {
+      sizes.push_back(js);
+      continue;
+    }
     js["shape"] =
         Json(std::vector<double>{s.shape.c_phi, s.shape.b_phi, s.shape.c_mu, s.shape.b_mu});
     std::vector<double> pp, pj, pje, mj, mje;
@@ -671,6 +830,21 @@ Json collapse_fit_json(const CollapseFit& f) {
   j["beta"] = measured_json(f.beta);
   j["quality"] = quality_json(f.quality);
   j["bootstrap_resamples"] = f.bootstrap_used;
+  j["quality_bootstrap_spread"] = f.s_spread;
+  return j;
+}
+
+Json soft_comparison_json(const SoftComparison& c) {
+  Json j = joint_soft_json(c.fit, nullptr);
+  Json q = Json::object();
+  q["value"] = c.s;
+  q["error"] = c.s_spread;
+  q["acceptable"] = c.acceptable();
+  q["points_used"] = static_cast<std::int64_t>(c.used);
+  q["points_total"] = static_cast<std::int64_t>(c.total);
+  q["bootstrap_resamples"] = c.bootstrap_used;
+  q["measure"] = "mean over points of ((ln sigma - ln sigma_law(phi, gdot)) / dln sigma)^2";
+  j["quality"] = q;
   return j;
 }
 
@@ -717,6 +891,10 @@ Json olsson_teitel_json(const OlssonTeitelResult& r, const OlssonTeitelOptions& 
   splits["gdot"] = r.split_gdot;
   j["subset_splits"] = splits;
   j["subsets"] = subsets;
+  if (r.soft)
+    j["soft"] = soft_comparison_json(*r.soft);
+  else
+    j["soft_skipped"] = r.soft_skipped;
   j["warnings"] = strings_json(r.warnings);
   return j;
 }
@@ -736,6 +914,23 @@ std::string olsson_teitel_markdown(const OlssonTeitelResult& r, const OlssonTeit
   md << "| optimum | " << format_measured(r.best.phi_j) << " | " << format_measured(r.best.alpha)
      << " | " << format_measured(r.best.beta) << " | " << quality_md(r.best.quality) << " |\n";
   md << "| paper (Fig. 9) | 0.6474 | 1.33 | 2.55 | no acceptable collapse |\n\n";
+  md << "Bootstrap spread of S at the resamples' optima: " << fmt(r.best.s_spread, "%.3g")
+     << ".\n\n";
+  md << "## Soft granular rheology on the same points\n\n";
+  if (r.soft) {
+    const SoftComparison& c = *r.soft;
+    md << "Each point's measured P and sigma_xy give (P, J = gdot/P, phi, mu); the ten "
+          "parameters are fitted jointly (phi's error from P's error through the law's slope). "
+          "Quality: mean squared pull of ln sigma_xy against the law's sigma_xy(phi, gdot), "
+          "the same kind of number as S: "
+       << fmt(c.s, "%.4g") << " ± " << fmt(c.s_spread, "%.2g") << " (bootstrap, "
+       << c.bootstrap_used << " resamples; " << c.used << "/" << c.total << " points), "
+       << (c.acceptable() ? "consistent with the errors" : "not consistent with the errors")
+       << ".\n\n";
+    md << joint_soft_markdown(c.fit, nullptr);
+  } else {
+    md << "Not fitted: " << r.soft_skipped << "\n\n";
+  }
   md << "## Sub-ranges\n\n";
   md << "Each subset is optimised on its own; 'rest' is the complement. A trade-off means the "
         "subset's optimum improves the subset but worsens the rest, leaving it with an "
@@ -786,6 +981,52 @@ Json olsson_teitel_plot_data(const OlssonTeitelResult& r, const std::vector<Shea
   };
   j["at"] = scaled_json(r.at, r.at_quality);
   j["best"] = scaled_json(r.best.best, r.best.quality);
+  // Flow curves sigma(gdot) per curve with the soft law's prediction (when fitted).
+  std::vector<double> phi, gdot, sigma, sigma_err, law;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    phi.push_back(points[i].phi);
+    gdot.push_back(points[i].shear_rate);
+    sigma.push_back(points[i].sigma);
+    sigma_err.push_back(points[i].sigma_err);
+    law.push_back(r.soft && i < r.soft->sigma_law.size() && std::isfinite(r.soft->sigma_law[i])
+                      ? r.soft->sigma_law[i]
+                      : -1.0);
+  }
+  Json flow = Json::object();
+  flow["phi"] = Json(phi);
+  flow["gdot"] = Json(gdot);
+  flow["sigma_xy"] = Json(sigma);
+  flow["sigma_xy_err"] = Json(sigma_err);
+  if (r.soft) {
+    flow["sigma_law"] = Json(law);
+    flow["soft_quality"] = r.soft->s;
+    // The law along each curve, on a fine grid of gdot.
+    Json curves = Json::array();
+    std::map<double, std::pair<double, double>> range;
+    for (const auto& p : points) {
+      auto [it, inserted] = range.emplace(p.phi, std::make_pair(p.shear_rate, p.shear_rate));
+      it->second.first = std::min(it->second.first, p.shear_rate);
+      it->second.second = std::max(it->second.second, p.shear_rate);
+    }
+    for (const auto& [ph, gr] : range) {
+      std::vector<double> g, sg;
+      for (int k = 0; k <= 30; ++k) {
+        const double gd = gr.first * std::pow(gr.second / gr.first, k / 30.0);
+        const double sv = r.soft->fit.law.sigma_at(ph, gd);
+        if (std::isfinite(sv)) {
+          g.push_back(gd);
+          sg.push_back(sv);
+        }
+      }
+      Json c = Json::object();
+      c["phi"] = ph;
+      c["gdot"] = Json(g);
+      c["sigma"] = Json(sg);
+      curves.push_back(c);
+    }
+    flow["law_curves"] = curves;
+  }
+  j["flow"] = flow;
   return j;
 }
 

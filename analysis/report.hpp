@@ -34,6 +34,10 @@ Json soft_json(const SoftResult& r, const SoftOptions& o, const std::vector<std:
 std::string soft_markdown(const SoftResult& r, const SoftOptions& o,
                           const std::vector<std::string>& inputs);
 Json soft_plot_data(const SoftResult& r);
+// The joint soft fit (and its yield-stress comparison, if any) as JSON, markdown and plot data.
+Json joint_soft_json(const JointSoftFit& f, const YieldComparison* yield);
+std::string joint_soft_markdown(const JointSoftFit& f, const YieldComparison* yield);
+Json joint_soft_plot_data(const JointSoftFit& f, const YieldComparison* yield);
 
 Json olsson_teitel_json(const OlssonTeitelResult& r, const OlssonTeitelOptions& o,
                         const std::vector<std::string>& inputs);

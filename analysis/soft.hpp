@@ -4,9 +4,13 @@
 // and the yield stress it implies (label `yield`):
 //   sigma_Y = [(phi - phi_J(0))/c_phi]^(1/x) [mu_J(0) - c_mu ((phi - phi_J(0))/c_phi)^(y/x)]
 //           = a1 dphi^(1/x) - a2 dphi^((1+y)/x),  dphi = phi - phi_J(0) > 0.
+// Besides the paper's two-stage route (collapse each pressure, then fit phi_J(P), mu_J(P)),
+// the joint fit takes the whole law at once over every pressure and J (SoftLaw below).
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -26,11 +30,101 @@ struct HardSphereShape {
   std::string source;  // "hard-sphere fit (N=...)" or "--hs-params"
 };
 
+// The soft granular rheology as one law of (P, J), ten parameters:
+//   phi(P,J) = phi_J0 + c_phi P^x - C_phi J^b_phi,  mu(P,J) = mu_J0 - c_mu P^y + C_mu J^b_mu.
+struct SoftLaw {
+  double phi_j0 = 0.6474, c_phi = 0.3, x = 0.75, big_c_phi = 0.0683, b_phi = 0.391;
+  double mu_j0 = 0.108, c_mu = 0.3, y = 0.56, big_c_mu = 0.347, b_mu = 0.346;
+
+  static const std::array<const char*, 10>& names();  // phi_J0, c_phi, x, C_phi, b_phi, mu_J0, ...
+  std::array<double, 10> values() const;
+  static SoftLaw from(const std::array<double, 10>& v);
+
+  double phi(double p, double j) const;
+  double mu(double p, double j) const;
+  // d phi / d ln P at fixed gdot (J = gdot/P): c_phi x P^x + C_phi b_phi J^b_phi > 0, so the
+  // pressure at an imposed (phi, gdot) is unique.
+  double dphi_dlnp(double p, double gdot) const;
+  // The pressure of a constant-volume state (phi, gdot > 0): the root of phi(P, gdot/P) = phi.
+  // NaN if it lies outside 1e-14 < P < 1e3.
+  double pressure_at(double phi, double gdot) const;
+  // sigma_xy = mu(P, gdot/P) P at that pressure (NaN if none, or if mu <= 0 there).
+  double sigma_at(double phi, double gdot) const;
+  // The yield stress (gdot -> 0, label `yield`): 0 at and below phi_J0.
+  double sigma_yield(double phi) const;
+};
+
+// Options of the joint fit. Errors: a parametric bootstrap. Each resample draws every phi and
+// mu from a Gaussian about the fitted law with the data error times sqrt(max(1, chi2/dof)) of
+// that fit (so a law that misses the data by more than their errors does not get error bars
+// from the errors alone) and refits from the optimum; a parameter's error is the standard
+// deviation over the resamples. Chosen over the curvature of chi2 because x and y enter
+// through P^x and P^y over two or three decades of P: the chi2 surface is far from quadratic
+// along the valley that trades y against mu_J(0) and c_mu.
+struct JointSoftOptions {
+  int bootstrap = 200;  // resamples; 0: no bootstrap (the curvature errors only)
+  std::uint64_t seed = 20150112;
+  double y_target = 0.05;  // the error on y the report asks for; a larger one is explained
+};
+
+struct JointSoftFit {
+  std::int64_t n = 0;
+  std::size_t points = 0;
+  std::vector<double> pressures;    // distinct imposed pressures, ascending
+  FitResult phi_fit;                // phi_J0, c_phi, x, C_phi, b_phi (curvature errors)
+  FitResult mu_fit;                 // mu_J0, c_mu, y, C_mu, b_mu
+  SoftLaw law;                      // the optimum
+  std::array<Measured, 10> params;  // optimum, bootstrap error (curvature if bootstrap = 0)
+  Measured alpha;                   // 1/x, the yield-stress exponent
+  std::vector<std::array<double, 10>> samples;  // the bootstrap resamples' optima
+  int bootstrap_requested = 0;
+  double noise_scale_phi = 1.0, noise_scale_mu = 1.0;  // sqrt(max(1, chi2/dof))
+  // Why x or y is not resolved to options.y_target (empty when it is).
+  std::vector<std::string> resolution_notes;
+
+  // Bootstrap standard deviation of any function of the law (0 without resamples).
+  double spread(const std::function<double(const SoftLaw&)>& f) const;
+};
+
+// The joint fit of one N's points (at least 3 pressures and 8 points).
+// `start` skips the grid search for the starting point (used by resampling callers).
+JointSoftFit fit_soft_joint(const std::vector<GranularPoint>& points,
+                            const JointSoftOptions& options,
+                            const std::optional<SoftLaw>& start = std::nullopt);
+
+// Why x or y is not resolved to `target` given the fit's errors (empty when both are): the
+// notes fit_soft_joint attaches, for callers that replace the errors afterwards.
+std::vector<std::string> explain_resolution(const JointSoftFit& f,
+                                            const std::vector<GranularPoint>& points,
+                                            double target);
+
+// Constant-volume points above phi_J0 against the joint law: the measured stress at each
+// (phi, gdot), the law's stress there and its yield stress sigma_Y(phi), with bootstrap errors.
+struct YieldPoint {
+  double phi = 0.0, gdot = 0.0;
+  Measured sigma;        // measured sigma_xy
+  Measured sigma_law;    // the law at (phi, gdot)
+  Measured sigma_yield;  // the law's sigma_Y(phi)
+  double pull = 0.0;     // (sigma - sigma_law) / both errors
+};
+struct YieldComparison {
+  std::vector<YieldPoint> points;  // phi > phi_J0 only, ascending phi then gdot
+  std::size_t below = 0;           // constant-volume points at or below phi_J0 (not compared)
+  double mean_square_pull = 0.0;
+};
+YieldComparison compare_yield(const JointSoftFit& fit, const std::vector<ShearPoint>& cv);
+
 struct SoftOptions {
   HardSphereOptions hard_sphere;  // envelope and fit options for the shape
   // Fixed shape for every N instead of the per-N hard-sphere fit.
   std::optional<HardSphereShape> fixed_shape;
   bool scale_errors = false;
+  JointSoftOptions joint;
+  // The per-pressure collapse needs 4 pressures and the hard-sphere envelope; when it cannot be
+  // done, true throws (the library default), false keeps the joint fit and says why.
+  bool require_collapse = true;
+  // Constant-volume points (any phi) to compare with the joint law's yield stress.
+  std::vector<ShearPoint> yield_data;
 };
 
 // phi_J(P), mu_J(P) that best collapse one pressure's data onto the P -> 0
@@ -63,6 +157,10 @@ struct SoftSize {
   FitResult phi_fit;                        // phi_J0, c_phi, x
   FitResult mu_fit;                         // mu_J0, c_mu, y
   YieldLaw yield;
+  std::string collapse_skipped;       // why the per-pressure collapse is missing
+  std::optional<JointSoftFit> joint;  // the joint fit over every pressure and J
+  std::string joint_skipped;
+  std::optional<YieldComparison> yield_data;
 };
 
 struct SoftResult {

@@ -168,7 +168,7 @@ std::string sweep_text(const GridPreset& g) {
                     {"zip", std::move(zip)}};
   toml::table root{{"sweep", std::move(sweep)}, {"scene", std::move(scene)}};
   std::ostringstream os;
-  os << "# The hard-sphere study's '" << g.name << "' points (" << g.why
+  os << "# The " << g.study << " study's '" << g.name << "' points (" << g.why
      << ").\n# Written by `jamflow study`; run by it, or by `jamflow sweep` like any sweep.\n"
      << root << "\n";
   return os.str();

@@ -11,6 +11,7 @@ namespace jamflow::studies::hard_sphere {
 
 struct GridPreset {
   std::string name;
+  std::string study = "hard-sphere";  // names the sweep file's header
   std::vector<std::int64_t> sizes;
   std::vector<double> pressures;
   std::vector<double> js;  // viscous numbers, for every pressure and size

@@ -16,6 +16,7 @@
 #include "analysis/json.hpp"
 #include "lib/h5.hpp"
 #include "studies/common.hpp"
+#include "studies/table_report.hpp"
 #include "sweep/engine.hpp"
 #include "sweep/plan.hpp"
 
@@ -36,80 +37,6 @@ const std::map<std::string, SizeLaw>& table2() {
   return t;
 }
 const char* const kParameters[] = {"phi_J", "b_phi", "C_phi", "mu_J", "b_mu", "C_mu"};
-
-// The collected table: header and rows of text cells.
-struct Table {
-  std::vector<std::string> header;
-  std::vector<std::vector<std::string>> rows;
-  int column(const std::string& name) const {
-    for (std::size_t i = 0; i < header.size(); ++i) {
-      if (header[i] == name)
-        return static_cast<int>(i);
-    }
-    return -1;
-  }
-  double number(std::size_t row, const std::string& name) const {
-    const int c = column(name);
-    if (c < 0 || rows[row][std::size_t(c)].empty())
-      return std::nan("");
-    return std::stod(rows[row][std::size_t(c)]);
-  }
-  std::string text(std::size_t row, const std::string& name) const {
-    const int c = column(name);
-    return c < 0 ? "" : rows[row][std::size_t(c)];
-  }
-};
-
-Table read_table(const std::string& path) {
-  std::ifstream in(path);
-  Table t;
-  std::string line;
-  auto split = [](const std::string& l) {
-    std::vector<std::string> out;
-    std::stringstream ss(l);
-    std::string cell;
-    while (std::getline(ss, cell, ','))
-      out.push_back(cell);
-    if (!l.empty() && l.back() == ',')
-      out.emplace_back();
-    return out;
-  };
-  if (std::getline(in, line))
-    t.header = split(line);
-  while (std::getline(in, line)) {
-    if (!line.empty())
-      t.rows.push_back(split(line));
-  }
-  return t;
-}
-
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream os;
-  os << in.rdbuf();
-  return os.str();
-}
-
-// "v +- e" of a {"value", "error"} member, and its value and error.
-bool measured(const analysis::Json& j, const std::string& key, double& v, double& e) {
-  if (!j.is_object() || !j.contains(key))
-    return false;
-  const auto& m = j.at(key);
-  if (!m.is_object() || !m.contains("value"))
-    return false;
-  v = m.at("value").as_number();
-  e = m.contains("error") ? m.at("error").as_number() : std::nan("");
-  return true;
-}
-
-std::string sigma_text(double ours, double err, double seed) {
-  if (!(err > 0.0) || !std::isfinite(ours))
-    return "n/a";
-  const double z = (ours - seed) / err;
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%+.1f sigma%s", z, std::fabs(z) > 2.0 ? " (disagrees)" : "");
-  return buf;
-}
 
 // What the points cost, measured: CPU time (each replica ran on one thread, so its wall time)
 // per integrator, per particle force evaluation and per particle and tau_0, and what the paper
@@ -210,15 +137,7 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
   if (options.no_plots)
     args.push_back("--no-plots");
   const int analysis_status = analysis::analyze_main(args);
-  analysis::Json result = analysis::Json::object();
-  if (fs::exists(json_path)) {
-    try {
-      result = analysis::Json::parse(read_file(json_path));
-    } catch (const std::exception& e) {
-      std::fprintf(stderr, "%s: warning: cannot read %s: %s\n", study.c_str(), json_path.c_str(),
-                   e.what());
-    }
-  }
+  const analysis::Json result = read_analysis(study, json_path);
 
   // 2. The flow curves and mu(J), phi(J) (the seed's Figs. 2-3) from the table.
   run_plot("hard-sphere/plot.py", {run.table, (fs::path(out) / "flow_curves.png").string()},
@@ -291,19 +210,7 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
      << " min of wall time (points finished earlier are not rerun).\n";
 
   // Verdicts: what analyze leaves out.
-  std::vector<std::vector<std::string>> flagged;
-  for (std::size_t r = 0; r < table.rows.size(); ++r) {
-    std::string why;
-    for (const char* v : {"steady", "stable", "decorrelated"}) {
-      if (table.number(r, v) == 0.0)
-        why.append(why.empty() ? "" : ", ").append("not ").append(v);
-    }
-    if (!why.empty()) {
-      const bool kept = why == "not decorrelated" && table.number(r, "replicas") >= 2.0;
-      flagged.push_back(
-          {table.text(r, "point"), why, kept ? "kept: replica-scatter errors" : "left out"});
-    }
-  }
+  const std::vector<std::vector<std::string>> flagged = flagged_rows(table);
   md << "\n## Verdicts\n\n";
   if (flagged.empty()) {
     md << "Every point is steady, stable and decorrelated in every replica.\n";

@@ -105,6 +105,7 @@ std::vector<ShearPoint> make_two_branch(const TwoBranchSpec& spec) {
 
 std::vector<ShearPoint> make_soft_flow_curves(const TwoBranchSpec& spec, const SoftTruth& soft) {
   std::mt19937_64 rng(spec.seed);
+  std::mt19937_64 rng_p(spec.seed + 1000);  // the pressures' noise, apart from sigma's
   std::normal_distribution<double> normal(0.0, 1.0);
   const RheologyParams t = table2_infinite();
   std::vector<ShearPoint> out;
@@ -132,6 +133,8 @@ std::vector<ShearPoint> make_soft_flow_curves(const TwoBranchSpec& spec, const S
       const double sigma = p * mu;
       s.sigma_err = spec.rel_noise * sigma;
       s.sigma = sigma * std::exp(spec.rel_noise * normal(rng));
+      s.pressure_err = spec.rel_noise * p;
+      s.pressure = p * std::exp(spec.rel_noise * normal(rng_p));
       s.set = "N=" + std::to_string(spec.n) + ",phi=" + format_key(phi);
       s.source = "synthetic-soft";
       out.push_back(s);

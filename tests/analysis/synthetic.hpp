@@ -69,7 +69,8 @@ std::vector<ShearPoint> make_two_branch(const TwoBranchSpec& spec);
 // Constant-volume flow curves predicted by the soft granular rheology with
 // Table 2's N -> infinity parameters: P solves
 // phi = phi_J(0) + c_phi P^x - C_phi (gdot/P)^b_phi, then
-// sigma = P [mu_J(0) - c_mu P^y + C_mu J^b_mu]. Not of the two-branch form.
+// sigma = P [mu_J(0) - c_mu P^y + C_mu J^b_mu]. Not of the two-branch form. The measured
+// pressure carries the same relative noise as sigma (drawn from a second stream).
 std::vector<ShearPoint> make_soft_flow_curves(const TwoBranchSpec& spec, const SoftTruth& soft);
 
 }  // namespace jamflow::analysis::testing

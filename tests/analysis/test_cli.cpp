@@ -45,6 +45,16 @@ std::string shear_csv(const std::vector<ShearPoint>& pts) {
   return s;
 }
 
+// With the measured pressure, as a collected constant-volume sweep table has it.
+std::string shear_csv_with_pressure(const std::vector<ShearPoint>& pts) {
+  std::string s = "N,phi,gdot,sigma_xy,sigma_xy_err,pressure,pressure_err\n";
+  for (const auto& p : pts) {
+    s += std::to_string(p.n) + "," + num(p.phi) + "," + num(p.shear_rate) + "," + num(p.sigma) +
+         "," + num(p.sigma_err) + "," + num(p.pressure) + "," + num(p.pressure_err) + "\n";
+  }
+  return s;
+}
+
 struct CliRun {
   int code;
   std::string err;
@@ -148,6 +158,24 @@ TEST(Cli, SoftWritesPerPressureResults) {
   expect_measured(s.at("pressures").at("1e-05").at("phi_J"), "phi_J(1e-5)");
   expect_measured(s.at("pressures").at("1e-05").at("mu_J"), "mu_J(1e-5)");
   expect_measured(s.at("yield").at("exponent_1"), "yield exponent");
+  for (const char* k : {"x", "y", "alpha", "phi_J0", "mu_J0"})
+    expect_measured(s.at("joint").at(k), std::string("joint.") + k);
+  EXPECT_EQ(s.at("joint").at("bootstrap").at("used").as_number(), 200.0);
+  // The yield stress against constant-volume data, and a bootstrap count out of range.
+  testing::TwoBranchSpec cv;
+  cv.phis = {0.66, 0.68};
+  cv.gdot_min = 1e-6;
+  cv.gdot_max = 1e-4;
+  cv.n = 1000;
+  auto cv_data = dir.write(
+      "cv.csv", shear_csv_with_pressure(testing::make_soft_flow_curves(cv, testing::SoftTruth{})));
+  r = run({"soft", data, "--yield-data", cv_data, "-o", out, "--no-plots", "--bootstrap", "20"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const Json y = Json::parse(read_text(out)).at("sizes").at("1000").at("joint").at("yield_data");
+  EXPECT_EQ(y.at("phi").size(), 14u);
+  CliRun few = run({"soft", data, "-o", out, "--no-plots", "--bootstrap", "3"});
+  EXPECT_EQ(few.code, 2);
+  EXPECT_NE(few.err.find("--bootstrap 3"), std::string::npos) << few.err;
   CliRun bad = run({"soft", data, "-o", out, "--no-plots", "--hs-params", "0.4:0.07:x:0.35"});
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.err.find("--hs-params"), std::string::npos) << bad.err;
@@ -181,6 +209,29 @@ TEST(Cli, OlssonTeitelWithPlotsOrAWarningWhenPythonIsMissing) {
   if (r.err.find("plots skipped") == std::string::npos) {
     EXPECT_TRUE(std::filesystem::exists(dir.file("ot_fig9.png")));
   }
+}
+
+TEST(Cli, OlssonTeitelFitsTheSoftRheologyWhenPressuresAreMeasured) {
+  ScratchDir dir;
+  testing::TwoBranchSpec spec;
+  spec.points_per_decade = 1;
+  auto data = dir.write("cv.csv", shear_csv_with_pressure(
+                                      testing::make_soft_flow_curves(spec, testing::SoftTruth{})));
+  const std::string out = dir.file("ot.json");
+  CliRun r = run({"olsson-teitel", data, "-o", out, "--bootstrap", "10", "--no-plots"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  Json j = Json::parse(read_text(out));
+  ASSERT_TRUE(j.contains("soft")) << r.err;
+  expect_measured(j.at("soft").at("quality"), "soft.quality");
+  expect_measured(j.at("soft").at("y"), "soft.y");
+  EXPECT_TRUE(j.at("best").contains("quality_bootstrap_spread"));
+  // Without the pressure columns the soft law is skipped, and the result says why.
+  auto bare = dir.write("bare.csv", shear_csv(testing::make_two_branch(spec)));
+  r = run({"olsson-teitel", bare, "-o", out, "--bootstrap", "10", "--no-plots"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  j = Json::parse(read_text(out));
+  EXPECT_FALSE(j.contains("soft"));
+  EXPECT_NE(j.at("soft_skipped").as_string().find("pressure"), std::string::npos);
 }
 
 TEST(Cli, RunFileWithoutSummaryIsAnInputError) {

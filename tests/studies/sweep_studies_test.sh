@@ -7,6 +7,8 @@
 #  - a rerun recomputes nothing; --dry-run of every preset gives a point count and CPU-hours;
 #  - the studies in stages (timestep, stability, softness, ensemble) count their first stage
 #    with --dry-run and write its job array with --slurm.
+#  - soft-rheology and olsson-teitel (quick) write their report, HDF5 file and figures, and
+#    their analysis is `jamflow analyze soft` / `olsson-teitel` on their collected tables.
 # usage: sweep_studies_test.sh JAMFLOW_BINARY
 set -uo pipefail
 jamflow="$(realpath "$1")"
@@ -53,6 +55,63 @@ PY
   "$jamflow" study "$study" --preset quick --out "$out" -j 2 --no-plots > /dev/null 2> rerun.err
   grep -q "done (.* from before), 0 running, 0 failed, 0 waiting" rerun.err &&
     ok "$study: rerun recomputes nothing" || bad "$study: rerun: $(grep sweep rerun.err | tail -1)"
+done
+
+# The soft-rheology and olsson-teitel studies: the sweep(s), the report, the figures, and the
+# analysis in the study equals `jamflow analyze` run by hand on the collected tables.
+same_json() {
+  $py - "$1" "$2" <<'PY'
+import json, sys
+a, b = (json.load(open(p)) for p in sys.argv[1:3])
+for j in (a, b):
+    j.pop("inputs", None)
+sys.exit(0 if a == b else 1)
+PY
+}
+study_end_to_end() {  # study, files..., then "--" and the analyze arguments after the tables
+  local study="$1"; shift
+  local out="$work/$study"
+  "$jamflow" study "$study" --preset quick --out "$out" -j 2 > "$study.out" 2> "$study.err"
+  local status=$?
+  if [ "$status" -le 1 ]; then ok "$study quick ran (exit $status)"; else
+    bad "$study quick: exit $status: $(tail -3 "$study.err")"; fi
+  while [ "$1" != "--" ]; do
+    [ -s "$out/$1" ] && ok "$study: $1 written" || bad "$study: $1 missing"
+    shift
+  done
+  shift
+  local args=()
+  for a in "$@"; do args+=("${a//@OUT@/$out}"); done
+  "$jamflow" analyze "${args[@]}" -o "$work/by_hand.json" --no-plots > /dev/null 2>&1
+  local by_hand=$?
+  if [ -f "$out/analysis.json" ]; then
+    same_json "$out/analysis.json" "$work/by_hand.json" &&
+      ok "$study: analyze on the table gives the study's analysis.json" ||
+      bad "$study: analyze on the table differs from the study's analysis"
+  else
+    [ "$by_hand" -ne 0 ] && ok "$study: no fit, and analyze on the table fails too" ||
+      bad "$study: the study wrote no analysis.json but analyze on its table succeeds"
+  fi
+  rm -f "$work/by_hand.json"
+}
+study_end_to_end soft-rheology report.md soft-rheology.h5 analysis.md \
+  constant-pressure/table.csv constant-volume/table.csv analysis_fig8_joint_N256.png \
+  analysis_yield_N256.png -- \
+  soft @OUT@/constant-pressure/table.csv --yield-data @OUT@/constant-volume/table.csv
+grep -q "## Joint fit" "$work/soft-rheology/report.md" && grep -q "| y |" "$work/soft-rheology/report.md" &&
+  ok "soft-rheology: report gives the joint fit and y" || bad "soft-rheology: report sections"
+study_end_to_end olsson-teitel report.md olsson-teitel.h5 analysis.md table.csv \
+  analysis_fig9.png analysis_flow.png -- olsson-teitel @OUT@/table.csv
+grep -q "## Verdict" "$work/olsson-teitel/report.md" &&
+  grep -q "soft granular rheology (10 parameters)" "$work/olsson-teitel/report.md" &&
+  ok "olsson-teitel: report compares both descriptions" || bad "olsson-teitel: report sections"
+
+for study in soft-rheology olsson-teitel; do
+  for preset in standard paper; do
+    line=$("$jamflow" study "$study" --preset "$preset" --dry-run --out "$work/dry-$study-$preset")
+    echo "$line" | grep -q "CPU-hours" && ok "dry-run $study $preset: $line" ||
+      bad "dry-run $study $preset: $line"
+  done
 done
 
 for preset in quick standard paper; do

@@ -2,6 +2,7 @@
 // exist, dt = 0.05 is stable and accurate, dt = 1.5 is not, so dt_max = 0.05, and the cost
 // follows particle-steps = 1 / (J P* dt_max).
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -32,7 +33,8 @@ TEST(SoftnessStudy, TinyQuickPreset) {
   p.strain_eq = 0.0;
   p.strain_av = 0.0;
   p.budget_particle_steps = 0.0;  // no budget: the runs are short
-  const std::string dir = ::testing::TempDir() + "jamflow_softness_study";
+  const std::string dir =
+      ::testing::TempDir() + "jamflow_softness_study." + std::to_string(::getpid());
   std::filesystem::remove_all(dir);
   use_test_jamflow();
   StudyOptions o;

@@ -2,6 +2,7 @@
 // obviously stable (Euler dt = 0.05) and an obviously unstable (dt = 1.5) run are classified
 // as such.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 
@@ -26,7 +27,8 @@ TEST(StabilityStudy, TinyQuickPreset) {
   p.strain_eq = 0.0;
   p.t_av_min = 300.0;
   p.strain_av = 0.0;
-  const std::string dir = ::testing::TempDir() + "jamflow_stability_study";
+  const std::string dir =
+      ::testing::TempDir() + "jamflow_stability_study." + std::to_string(::getpid());
   std::filesystem::remove_all(dir);
   use_test_jamflow();
   StudyOptions o;

@@ -2,6 +2,7 @@
 // reference is Euler at the smallest dt, dt = 0.05 is stable with a finite error, dt = 1.5 is
 // not stable and never counted as meeting a target.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -29,7 +30,8 @@ TEST(TimestepStudy, TinyQuickPreset) {
   p.strain_eq = 0.0;
   p.t_av_min = 480.0;
   p.strain_av = 0.0;
-  const std::string dir = ::testing::TempDir() + "jamflow_timestep_study";
+  const std::string dir =
+      ::testing::TempDir() + "jamflow_timestep_study." + std::to_string(::getpid());
   std::filesystem::remove_all(dir);
   use_test_jamflow();
   StudyOptions o;

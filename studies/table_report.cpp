@@ -1,0 +1,169 @@
+#include "studies/table_report.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "studies/common.hpp"
+
+namespace jamflow::studies {
+
+int Table::column(const std::string& name) const {
+  for (std::size_t i = 0; i < header.size(); ++i) {
+    if (header[i] == name)
+      return static_cast<int>(i);
+  }
+  return -1;
+}
+
+double Table::number(std::size_t row, const std::string& name) const {
+  const int c = column(name);
+  if (c < 0 || std::size_t(c) >= rows[row].size() || rows[row][std::size_t(c)].empty())
+    return std::nan("");
+  return std::stod(rows[row][std::size_t(c)]);
+}
+
+std::string Table::text(std::size_t row, const std::string& name) const {
+  const int c = column(name);
+  return c < 0 || std::size_t(c) >= rows[row].size() ? "" : rows[row][std::size_t(c)];
+}
+
+Table read_table(const std::string& path) {
+  std::ifstream in(path);
+  Table t;
+  std::string line;
+  auto split = [](const std::string& l) {
+    std::vector<std::string> out;
+    std::stringstream ss(l);
+    std::string cell;
+    while (std::getline(ss, cell, ','))
+      out.push_back(cell);
+    if (!l.empty() && l.back() == ',')
+      out.emplace_back();
+    return out;
+  };
+  if (std::getline(in, line))
+    t.header = split(line);
+  while (std::getline(in, line)) {
+    if (!line.empty())
+      t.rows.push_back(split(line));
+  }
+  return t;
+}
+
+std::string read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream os;
+  os << in.rdbuf();
+  return os.str();
+}
+
+analysis::Json read_analysis(const std::string& study, const std::string& json_path) {
+  if (!std::filesystem::exists(json_path))
+    return analysis::Json::object();
+  try {
+    return analysis::Json::parse(read_file(json_path));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s: warning: cannot read %s: %s\n", study.c_str(), json_path.c_str(),
+                 e.what());
+    return analysis::Json::object();
+  }
+}
+
+bool measured(const analysis::Json& j, const std::string& key, double& v, double& e) {
+  if (!j.is_object() || !j.contains(key))
+    return false;
+  const auto& m = j.at(key);
+  if (!m.is_object() || !m.contains("value") || !m.at("value").is_number())
+    return false;
+  v = m.at("value").as_number();
+  e = m.contains("error") && m.at("error").is_number() ? m.at("error").as_number() : std::nan("");
+  return true;
+}
+
+std::string sigma_text(double ours, double err, double seed) {
+  if (!(err > 0.0) || !std::isfinite(ours))
+    return "n/a";
+  const double z = (ours - seed) / err;
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%+.1f sigma%s", z, std::fabs(z) > 2.0 ? " (disagrees)" : "");
+  return buf;
+}
+
+std::vector<std::vector<std::string>> flagged_rows(const Table& table) {
+  std::vector<std::vector<std::string>> flagged;
+  for (std::size_t r = 0; r < table.rows.size(); ++r) {
+    std::string why;
+    for (const char* v : {"steady", "stable", "decorrelated"}) {
+      if (table.number(r, v) == 0.0)
+        why.append(why.empty() ? "" : ", ").append("not ").append(v);
+    }
+    if (!why.empty()) {
+      const bool kept = why == "not decorrelated" && table.number(r, "replicas") >= 2.0;
+      flagged.push_back(
+          {table.text(r, "point"), why, kept ? "kept: replica-scatter errors" : "left out"});
+    }
+  }
+  return flagged;
+}
+
+std::string verdicts_markdown(const Table& table, const std::string& what) {
+  std::ostringstream md;
+  const auto flagged = flagged_rows(table);
+  if (flagged.empty()) {
+    md << "Every " << what << " point is steady, stable and decorrelated in every replica.\n\n";
+    return md.str();
+  }
+  std::size_t left = 0;
+  for (const auto& f : flagged)
+    left += f[2] == "left out";
+  if (left == 0)
+    md << "No " << what << " point is left out of the analysis (none is unsteady or unstable).";
+  else
+    md << left << " of " << table.rows.size() << " " << what
+       << " points are left out of the analysis (not steady or not stable in some replica).";
+  md << " A point whose blocks are shorter than 2 tau (not decorrelated) is kept when it has "
+        "several replicas: its error bars then include the scatter of independent replicas "
+        "(analysis/README.md).\n\n";
+  // The left-out points by name; the kept ones counted.
+  std::vector<std::vector<std::string>> listed;
+  for (const auto& f : flagged) {
+    if (f[2] == "left out")
+      listed.push_back(f);
+  }
+  if (!listed.empty())
+    md << markdown_table({"point", "verdict", "used"}, listed) << "\n";
+  if (flagged.size() > listed.size())
+    md << flagged.size() - listed.size()
+       << " more are not decorrelated and are kept with replica-scatter errors (table.csv, "
+          "column decorrelated).\n\n";
+  return md.str();
+}
+
+void write_points_h5(H5Writer& w, const Table& table, const std::string& group) {
+  w.group(group);
+  std::string names;
+  for (std::size_t r = 0; r < table.rows.size(); ++r)
+    names.append(r ? "\n" : "").append(table.text(r, "point"));
+  w.attr(group, "names", names);
+  for (const auto& col : table.header) {
+    if (col == "point" || col == "ensemble" || col == "folder")
+      continue;
+    std::vector<double> v;
+    bool numeric = true;
+    for (std::size_t r = 0; r < table.rows.size() && numeric; ++r) {
+      const std::string cell = table.text(r, col);
+      char* end = nullptr;
+      const double x = cell.empty() ? std::nan("") : std::strtod(cell.c_str(), &end);
+      if (!cell.empty() && (end == nullptr || *end != '\0'))
+        numeric = false;
+      v.push_back(x);
+    }
+    if (numeric && col.find('.') == std::string::npos)
+      w.dataset(group + "/" + col, v);
+  }
+}
+
+}  // namespace jamflow::studies

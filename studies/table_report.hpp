@@ -1,0 +1,46 @@
+// What the reports of the studies on the sweep engine share: the collected table
+// (sweep/collect.cpp) read back, its verdicts, its points as HDF5, and the comparison of a
+// fitted value with the seed's in sigma.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "analysis/json.hpp"
+#include "lib/h5.hpp"
+
+namespace jamflow::studies {
+
+// A collected table: header and rows of text cells.
+struct Table {
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+  int column(const std::string& name) const;
+  double number(std::size_t row, const std::string& name) const;  // NaN if empty or absent
+  std::string text(std::size_t row, const std::string& name) const;
+};
+
+Table read_table(const std::string& path);  // an empty table if the file is absent
+std::string read_file(const std::string& path);
+
+// The analysis JSON written by `jamflow analyze` (an empty object, with a warning on stderr,
+// if it is absent or unreadable).
+analysis::Json read_analysis(const std::string& study, const std::string& json_path);
+
+// value and error of a {"value", "error"} member; false if absent.
+bool measured(const analysis::Json& j, const std::string& key, double& v, double& e);
+
+// "+1.2 sigma" (with "(disagrees)" beyond 2), or "n/a" without an error.
+std::string sigma_text(double ours, double err, double seed);
+
+// The rows whose verdicts failed: {point, verdict, what the analysis does with it}, as
+// analysis/data.cpp decides (not steady or not stable: left out; not decorrelated: kept with
+// two replicas or more).
+std::vector<std::vector<std::string>> flagged_rows(const Table& table);
+
+// The "## Verdicts" section of a report for one table.
+std::string verdicts_markdown(const Table& table, const std::string& what);
+
+// The table's numeric columns under `group` (names of the points as an attribute).
+void write_points_h5(H5Writer& w, const Table& table, const std::string& group);
+
+}  // namespace jamflow::studies
