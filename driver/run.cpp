@@ -880,6 +880,33 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   return res;
 }
 
+Configuration configuration_of(const State& st) {
+  Configuration c;
+  const std::size_t n = st.size();
+  c.positions.resize(3 * n);
+  c.diameters.resize(n);
+  c.species.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto id = static_cast<std::size_t>(st.id[i]);
+    Eigen::Vector3d s = st.scaled(i);
+    for (int k = 0; k < 3; ++k)
+      s[k] -= std::floor(s[k]);
+    const Eigen::Vector3d x = st.box.h() * s;
+    for (int k = 0; k < 3; ++k)
+      c.positions[3 * id + k] = x[k];
+    c.diameters[id] = st.diameter[i];
+    c.species[id] = st.species[i];
+  }
+  const Eigen::Matrix3d cell = st.box.h().transpose();
+  c.cell.resize(9);
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b)
+      c.cell[3 * a + b] = cell(a, b);
+  c.strain = st.box.strain;
+  c.time = st.time;
+  return c;
+}
+
 namespace {
 
 // `summary` replaces r's own summary values, counters and wall time (the replica mean at the
@@ -904,33 +931,15 @@ void write_replica(H5Writer& w, const RunSpec& spec, const ReplicaResult& r,
   w.attr(ts, "seed", static_cast<std::int64_t>(r.seed));
 
   // Final configuration, in particle id order; cell rows are the lattice vectors.
-  const State& st = r.final_state;
-  const std::size_t n = st.size();
-  std::vector<double> pos(3 * n), diam(n);
-  std::vector<std::int64_t> species(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const auto id = static_cast<std::size_t>(st.id[i]);
-    Eigen::Vector3d s = st.scaled(i);
-    for (int c = 0; c < 3; ++c)
-      s[c] -= std::floor(s[c]);
-    const Eigen::Vector3d x = st.box.h() * s;
-    for (int c = 0; c < 3; ++c)
-      pos[3 * id + c] = x[c];
-    diam[id] = st.diameter[i];
-    species[id] = st.species[i];
-  }
+  const Configuration c = configuration_of(r.final_state);
+  const std::size_t n = c.diameters.size();
   const std::string fin = prefix + "/final";
-  w.dataset(fin + "/positions", pos, {n, 3});
-  w.dataset(fin + "/diameters", diam);
-  w.dataset(fin + "/species", species);
-  const Eigen::Matrix3d cell = st.box.h().transpose();
-  std::vector<double> cellv(9);
-  for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b)
-      cellv[3 * a + b] = cell(a, b);
-  w.dataset(fin + "/cell", cellv, {3, 3});
-  w.attr(fin, "strain", st.box.strain);
-  w.attr(fin, "time", st.time);
+  w.dataset(fin + "/positions", c.positions, {n, 3});
+  w.dataset(fin + "/diameters", c.diameters);
+  w.dataset(fin + "/species", c.species);
+  w.dataset(fin + "/cell", c.cell, {3, 3});
+  w.attr(fin, "strain", c.strain);
+  w.attr(fin, "time", c.time);
 
   const std::string sm = prefix + "/summary";
   w.group(sm);
@@ -1108,9 +1117,25 @@ bool print_summary(const RunSpec& spec, const std::vector<ReplicaResult>& result
 
 }  // namespace
 
-int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOptions& output) {
-  check_output(spec.file, output);
-  std::vector<ReplicaResult> results;
+Summary combined_summary(const std::vector<ReplicaResult>& replicas) {
+  if (replicas.size() == 1)
+    return replicas.front().summary;
+  std::vector<Summary> sums;
+  for (const auto& r : replicas)
+    sums.push_back(r.summary);
+  return combine_replicas(sums);
+}
+
+RunOutcome run_replicas(const RunSpec& spec, const RunOptions& options,
+                        const OutputOptions& output) {
+  if (output.write) {
+    check_output(spec.file, output);
+  } else if (spec.trajectory_every > 0.0) {
+    throw ConfigError("[output] trajectory_every = " + fmt(spec.trajectory_every) +
+                      " needs an output file; allowed 0 for a run that writes no files");
+  }
+  RunOutcome outcome;
+  std::vector<ReplicaResult>& results = outcome.replicas;
   if (output.continue_from)
     results = *output.continue_from;
   const std::string stem = stem_of(spec.file);
@@ -1123,6 +1148,8 @@ int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOp
       static_cast<std::size_t>(std::floor((spec.t_eq + spec.t_av) / spec.sample_every + 1e-9));
   // The .part file: every replica so far, the current one as it stands.
   auto write_part = [&](std::size_t k, const ReplicaResult& current) {
+    if (!output.write)
+      return;
     std::vector<ReplicaResult> all(results.begin(), results.begin() + std::ptrdiff_t(k));
     all.push_back(current);
     H5Writer w(spec.file + ".part", ".tmp");
@@ -1141,7 +1168,8 @@ int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOp
     RunOptions o = options;
     o.label = stem + replica_suffix(k, count);
     o.checkpoint_every = spec.checkpoint_every;
-    o.checkpoint = [&, k](const ReplicaResult& current) { write_part(k, current); };
+    if (output.write)
+      o.checkpoint = [&, k](const ReplicaResult& current) { write_part(k, current); };
     ReplicaResult r = run_replica(spec, spec.seed + k, o, from);
     if (k < results.size())
       results[k] = std::move(r);
@@ -1149,30 +1177,42 @@ int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOp
       results.push_back(std::move(r));
     const ReplicaResult& last = results[k];
     const bool ok = last.status == "complete";
-    write_xyz_file(o.label + (ok ? ".final.xyz" : ".last.xyz"), last.final_state);
+    if (output.write)
+      write_xyz_file(o.label + (ok ? ".final.xyz" : ".last.xyz"), last.final_state);
     if (!ok) {
       write_part(k, last);
-      std::fprintf(stderr, "jamflow: %s; data kept in %s.part (continue it with --resume)\n",
-                   last.status.c_str(), spec.file.c_str());
-      if (last.signal != 0)
-        return 128 + last.signal;
-      return last.status.rfind("interrupted", 0) == 0 ? 130 : 1;
+      if (output.write) {
+        std::fprintf(stderr, "jamflow: %s; data kept in %s.part (continue it with --resume)\n",
+                     last.status.c_str(), spec.file.c_str());
+      }
+      outcome.code = last.signal != 0                           ? 128 + last.signal
+                     : last.status.rfind("interrupted", 0) == 0 ? 130
+                                                                : 1;
+      return outcome;
     }
     if (k + 1 < count)
       write_part(k, last);
   }
-  std::string write_error;
+  if (!output.write)
+    return outcome;
   try {
     write_run_file(spec, results, spec.file);
     std::error_code ec;
     std::filesystem::remove(spec.file + ".part", ec);
   } catch (const std::exception& e) {
-    write_error = e.what();
+    outcome.write_error = e.what();
   }
-  const bool failed_verdict = print_summary(spec, results);
-  if (!write_error.empty()) {
-    std::fprintf(stderr, "jamflow: error: %s; the data is kept in %s.part\n", write_error.c_str(),
-                 spec.file.c_str());
+  return outcome;
+}
+
+int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOptions& output) {
+  const RunOutcome outcome = run_replicas(spec, options, output);
+  if (outcome.code != 0)
+    return outcome.code;
+  const bool failed_verdict = print_summary(spec, outcome.replicas);
+  if (!outcome.write_error.empty()) {
+    std::fprintf(stderr, "jamflow: error: %s; the data is kept in %s.part\n",
+                 outcome.write_error.c_str(), spec.file.c_str());
     return 1;
   }
   if (failed_verdict && output.strict) {
