@@ -19,6 +19,7 @@
 #include "integrators/registry.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
+#include "lib/h5md.hpp"
 #include "lib/init.hpp"
 #include "lib/progress.hpp"
 #include "lib/statistics.hpp"
@@ -278,6 +279,7 @@ RunSpec parse_run_spec(const Scene& scene) {
   spec.file = out.text("file", "jamflow.h5");
   spec.trajectory_every = out.number("trajectory_every", 0.0, Range::non_negative());
   spec.checkpoint_every = out.number("checkpoint_every", 600.0, Range{1e-3, 1e9});
+  spec.trajectory_format = out.choice("trajectory_format", "xyz", {"xyz", "h5md", "both"});
   out.finish();
   if (spec.trajectory_every > 0.0) {
     const double ratio = spec.trajectory_every / spec.sample_every;
@@ -729,9 +731,20 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   const long long traj_stride =
       spec.trajectory_every > 0 ? std::llround(spec.trajectory_every / spec.sample_every) : 0;
 
+  const bool traj_xyz = traj_stride > 0 && spec.trajectory_format != "h5md";
+  const bool traj_h5md = traj_stride > 0 && spec.trajectory_format != "xyz";
   std::ofstream traj;
   std::string traj_path;
-  if (traj_stride > 0) {
+  std::unique_ptr<H5mdTrajectory> h5md;
+  const std::string h5md_path = options.label + ".traj.h5md";
+  if (traj_h5md) {
+    // The frames up to the checkpoint's last sample (k = 0, stride, 2 stride, ...) are kept.
+    const std::int64_t keep =
+        from ? std::int64_t(from->series.samples.size() - 1) / traj_stride + 1 : -1;
+    h5md = std::make_unique<H5mdTrajectory>(h5md_path + ".part",
+                                            from ? from->end.state : model.state(), keep);
+  }
+  if (traj_xyz) {
     traj_path = options.label + ".traj.xyz";
     if (from) {
       // Frames written after the checkpoint (a run killed later) are dropped.
@@ -767,10 +780,18 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
     r.final_state = model.state();
     r.integrator_stats = integ->statistics();
     r.wall_seconds = elapsed();
-    if (traj_stride > 0) {
+    if (traj_xyz) {
       traj.flush();
       r.trajectory_bytes = static_cast<std::int64_t>(traj.tellp());
     }
+    if (h5md)
+      h5md->flush();
+  };
+  auto write_frame = [&](long long k, double t_rel) {
+    if (traj_xyz)
+      write_xyz(traj, model.state());
+    if (h5md)
+      h5md->append(model.state(), k, t_rel);
   };
   auto checkpoint = [&] {
     if (!options.checkpoint)
@@ -806,7 +827,7 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
     if (!from) {
       record(0.0);
       if (traj_stride > 0)
-        write_xyz(traj, model.state());
+        write_frame(0, 0.0);
       checkpoint();  // the .part file exists from the start
     }
     bool stopped = false;
@@ -841,7 +862,7 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
         record(t_rel);
       }
       if (traj_stride > 0 && k % traj_stride == 0)
-        write_xyz(traj, model.state());
+        write_frame(k, t_rel);
       const Sample& last = res.series.samples.back();
       char extra[160];
       std::snprintf(extra, sizeof extra, "phi %.5f  P %.3e  sigma_xy %.3e", last.phi, last.pressure,
@@ -858,10 +879,15 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   fill(res);
   res.integrator_stats.emplace_back("force_evaluations", double(model.force_evaluations()));
   res.integrator_stats.emplace_back("neighbour_list_builds", double(model.list_builds()));
-  if (traj_stride > 0) {
+  if (traj_xyz) {
     traj.close();
     if (res.status == "complete")
       std::filesystem::rename(traj_path + ".part", traj_path);
+  }
+  if (h5md) {
+    h5md->close();
+    if (res.status == "complete")
+      std::filesystem::rename(h5md_path + ".part", h5md_path);
   }
   if (res.status == "complete") {
     const StepPairs* steps = step_test ? &res.steps : nullptr;

@@ -52,6 +52,8 @@ struct RunSpec {
   // [output]
   std::string file = "jamflow.h5";
   double trajectory_every = 0.0;  // 0: no trajectory file
+  // "xyz" (<stem>.traj.xyz), "h5md" (<stem>.traj.h5md, H5MD 1.1) or "both".
+  std::string trajectory_format = "xyz";
   double checkpoint_every = 600.0;  // seconds of wall time between checkpoints
   // Parts: the ensemble is stateless and shared; integrators keep history and counters, so
   // each replica makes its own from the typed settings.
