@@ -5,6 +5,7 @@ import os
 import signal
 import subprocess
 import threading
+import time
 import warnings
 
 import h5py
@@ -110,7 +111,14 @@ def test_a_resumed_run_continues_the_h5md_trajectory(tmp_path):
     scene.update({"system.N": 1000, "run.t_av": 4000.0, "output.trajectory_every": 100.0,
                   "output.trajectory_format": "h5md"})
     whole = jamflow.run(scene, out=tmp_path / "whole.h5")
-    timer = threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGINT))
+
+    def interrupt():  # once the run has started (its first checkpoint), and a little later
+        while not (tmp_path / "cut.h5.part").exists():
+            time.sleep(0.01)
+        time.sleep(0.2)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    timer = threading.Thread(target=interrupt)
     timer.start()
     with pytest.raises(KeyboardInterrupt):
         jamflow.run(scene, out=tmp_path / "cut.h5")
