@@ -817,4 +817,21 @@ PYBIND11_MODULE(jamflow, m) {
         py::kw_only(), py::arg("plots") = false,
         "`jamflow analyze KIND DATA...`: kind is 'hard-sphere', 'soft' or 'olsson-teitel'; "
         "options as keywords (envelope_z=2, bootstrap=50). Returns the JSON result.");
+  // One function per analysis, as the command line has one subcommand per analysis.
+  for (const char* kind : {"hard-sphere", "soft", "olsson-teitel"}) {
+    std::string name = std::string("analyze_") + kind;
+    for (char& c : name)
+      if (c == '-')
+        c = '_';
+    const std::string doc = std::string("`jamflow analyze ") + kind +
+                            " DATA...`: options as keywords; returns the JSON result.";
+    m.def(
+        name.c_str(),
+        [kind = std::string(kind)](py::object data, py::object out, bool plots,
+                                   py::kwargs options) {
+          return analyze(kind, std::move(data), std::move(out), plots, std::move(options));
+        },
+        py::arg("data"), py::arg("out") = py::none(), py::kw_only(), py::arg("plots") = false,
+        doc.c_str());
+  }
 }

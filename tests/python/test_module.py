@@ -303,6 +303,8 @@ def test_analyze_returns_plain_objects_and_raises_one_line_errors(tmp_path):
     data.write_text("\n".join(rows) + "\n")
     result = jamflow.analyze("hard-sphere", data)
     assert isinstance(result, dict)
+    assert jamflow.analyze_hard_sphere([data], envelope_z=2) == \
+        jamflow.analyze("hard-sphere", data, envelope_z=2)
     text = repr(result)
     assert "phi_J" in text or "phi_j" in text
     with pytest.raises(jamflow.ConfigError) as err:
