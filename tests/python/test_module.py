@@ -109,6 +109,11 @@ def test_errors_are_the_command_lines_one_line_messages(tmp_path):
         scene.set("shear.speed", 1.0)
     with pytest.raises(jamflow.ConfigError, match="not a scene value"):
         scene.set("shear.rate", object())
+    with pytest.raises(jamflow.ConfigError, match=r"\[output\] trajectory_format"):
+        scene.set("output.trajectory_format", "pdb")
+    scene.set("output.trajectory_every", 5.0)
+    with pytest.raises(jamflow.ConfigError, match="needs an output file"):
+        jamflow.run(scene)  # a trajectory, and nowhere to write it
     with pytest.raises(jamflow.InputFileError):
         jamflow.Scene(tmp_path / "missing.toml")
     assert issubclass(jamflow.InputFileError, OSError)
