@@ -737,6 +737,14 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   std::string traj_path;
   std::unique_ptr<H5mdTrajectory> h5md;
   const std::string h5md_path = options.label + ".traj.h5md";
+  if (from && from->status == "complete") {
+    // Extending a finished run: its trajectories were completed (renamed); they go on as .part.
+    for (const std::string& path : {options.label + ".traj.xyz", h5md_path}) {
+      std::error_code ec;
+      if (std::filesystem::exists(path, ec) && !std::filesystem::exists(path + ".part", ec))
+        std::filesystem::rename(path, path + ".part", ec);
+    }
+  }
   if (traj_h5md) {
     // The frames up to the checkpoint's last sample (k = 0, stride, 2 stride, ...) are kept.
     const std::int64_t keep =

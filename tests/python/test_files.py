@@ -134,3 +134,21 @@ def test_a_resumed_run_continues_the_h5md_trajectory(tmp_path):
                 x, y = a[name][part][()], b[name][part][()]
                 assert x.shape == y.shape and x.tobytes() == y.tobytes(), name + "/" + part
     assert whole.timeseries["time"][-1] == 4000.0
+
+
+def test_an_extended_run_continues_its_trajectories(tmp_path):
+    longer = jamflow.Scene(SCENE)
+    longer.set("run.t_av", 40.0)
+    jamflow.run(longer, out=tmp_path / "long.h5")
+    jamflow.run(SCENE, out=tmp_path / "ext.h5")
+    bin_ = os.environ.get("JAMFLOW_BIN", "jamflow")
+    out = subprocess.run([bin_, "run", "--extend", str(tmp_path / "ext.h5"), "--set",
+                          "run.t_av=40", "-q"], capture_output=True, text=True, cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert (tmp_path / "ext.traj.xyz").read_text() == (tmp_path / "long.traj.xyz").read_text()
+    with h5py.File(tmp_path / "long.traj.h5md") as a, h5py.File(tmp_path / "ext.traj.h5md") as b:
+        assert b["particles/all/position/value"].shape[0] == 9  # t = 0, 5, ..., 40
+        for name in ("particles/all/position", "particles/all/box/edges", "observables/strain"):
+            for part in ("step", "time", "value"):
+                x, y = a[name][part][()], b[name][part][()]
+                assert x.shape == y.shape and x.tobytes() == y.tobytes(), name + "/" + part
