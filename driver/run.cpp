@@ -19,6 +19,7 @@
 #include "integrators/registry.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
+#include "lib/h5md.hpp"
 #include "lib/init.hpp"
 #include "lib/progress.hpp"
 #include "lib/statistics.hpp"
@@ -280,6 +281,7 @@ RunSpec parse_run_spec(const Scene& scene) {
   spec.file = out.text("file", "jamflow.h5");
   spec.trajectory_every = out.number("trajectory_every", 0.0, Range::non_negative());
   spec.checkpoint_every = out.number("checkpoint_every", 600.0, Range{1e-3, 1e9});
+  spec.trajectory_format = out.choice("trajectory_format", "xyz", {"xyz", "h5md", "both"});
   out.finish();
   if (spec.trajectory_every > 0.0) {
     const double ratio = spec.trajectory_every / spec.sample_every;
@@ -739,9 +741,28 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   const long long traj_stride =
       spec.trajectory_every > 0 ? std::llround(spec.trajectory_every / spec.sample_every) : 0;
 
+  const bool traj_xyz = traj_stride > 0 && spec.trajectory_format != "h5md";
+  const bool traj_h5md = traj_stride > 0 && spec.trajectory_format != "xyz";
   std::ofstream traj;
   std::string traj_path;
-  if (traj_stride > 0) {
+  std::unique_ptr<H5mdTrajectory> h5md;
+  const std::string h5md_path = options.label + ".traj.h5md";
+  if (from && from->status == "complete") {
+    // Extending a finished run: its trajectories were completed (renamed); they go on as .part.
+    for (const std::string& path : {options.label + ".traj.xyz", h5md_path}) {
+      std::error_code ec;
+      if (std::filesystem::exists(path, ec) && !std::filesystem::exists(path + ".part", ec))
+        std::filesystem::rename(path, path + ".part", ec);
+    }
+  }
+  if (traj_h5md) {
+    // The frames up to the checkpoint's last sample (k = 0, stride, 2 stride, ...) are kept.
+    const std::int64_t keep =
+        from ? std::int64_t(from->series.samples.size() - 1) / traj_stride + 1 : -1;
+    h5md = std::make_unique<H5mdTrajectory>(h5md_path + ".part",
+                                            from ? from->end.state : model.state(), keep);
+  }
+  if (traj_xyz) {
     traj_path = options.label + ".traj.xyz";
     if (from) {
       // Frames written after the checkpoint (a run killed later) are dropped.
@@ -777,10 +798,18 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
     r.final_state = model.state();
     r.integrator_stats = integ->statistics();
     r.wall_seconds = elapsed();
-    if (traj_stride > 0) {
+    if (traj_xyz) {
       traj.flush();
       r.trajectory_bytes = static_cast<std::int64_t>(traj.tellp());
     }
+    if (h5md)
+      h5md->flush();
+  };
+  auto write_frame = [&](long long k, double t_rel) {
+    if (traj_xyz)
+      write_xyz(traj, model.state());
+    if (h5md)
+      h5md->append(model.state(), k, t_rel);
   };
   auto checkpoint = [&] {
     if (!options.checkpoint)
@@ -816,7 +845,7 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
     if (!from) {
       record(0.0);
       if (traj_stride > 0)
-        write_xyz(traj, model.state());
+        write_frame(0, 0.0);
       checkpoint();  // the .part file exists from the start
     }
     bool stopped = false;
@@ -860,7 +889,7 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
         record(t_rel);
       }
       if (traj_stride > 0 && k % traj_stride == 0)
-        write_xyz(traj, model.state());
+        write_frame(k, t_rel);
       const Sample& last = res.series.samples.back();
       char extra[160];
       std::snprintf(extra, sizeof extra, "phi %.5f  P %.3e  sigma_xy %.3e", last.phi, last.pressure,
@@ -877,10 +906,15 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   fill(res);
   res.integrator_stats.emplace_back("force_evaluations", double(model.force_evaluations()));
   res.integrator_stats.emplace_back("neighbour_list_builds", double(model.list_builds()));
-  if (traj_stride > 0) {
+  if (traj_xyz) {
     traj.close();
     if (res.status == "complete")
       std::filesystem::rename(traj_path + ".part", traj_path);
+  }
+  if (h5md) {
+    h5md->close();
+    if (res.status == "complete")
+      std::filesystem::rename(h5md_path + ".part", h5md_path);
   }
   if (res.status == "complete") {
     const StepPairs* steps = step_test ? &res.steps : nullptr;
@@ -897,6 +931,33 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   }
   res.wall_seconds = elapsed();
   return res;
+}
+
+Configuration configuration_of(const State& st) {
+  Configuration c;
+  const std::size_t n = st.size();
+  c.positions.resize(3 * n);
+  c.diameters.resize(n);
+  c.species.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto id = static_cast<std::size_t>(st.id[i]);
+    Eigen::Vector3d s = st.scaled(i);
+    for (int k = 0; k < 3; ++k)
+      s[k] -= std::floor(s[k]);
+    const Eigen::Vector3d x = st.box.h() * s;
+    for (int k = 0; k < 3; ++k)
+      c.positions[3 * id + k] = x[k];
+    c.diameters[id] = st.diameter[i];
+    c.species[id] = st.species[i];
+  }
+  const Eigen::Matrix3d cell = st.box.h().transpose();
+  c.cell.resize(9);
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b)
+      c.cell[3 * a + b] = cell(a, b);
+  c.strain = st.box.strain;
+  c.time = st.time;
+  return c;
 }
 
 namespace {
@@ -923,33 +984,15 @@ void write_replica(H5Writer& w, const RunSpec& spec, const ReplicaResult& r,
   w.attr(ts, "seed", static_cast<std::int64_t>(r.seed));
 
   // Final configuration, in particle id order; cell rows are the lattice vectors.
-  const State& st = r.final_state;
-  const std::size_t n = st.size();
-  std::vector<double> pos(3 * n), diam(n);
-  std::vector<std::int64_t> species(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    const auto id = static_cast<std::size_t>(st.id[i]);
-    Eigen::Vector3d s = st.scaled(i);
-    for (int c = 0; c < 3; ++c)
-      s[c] -= std::floor(s[c]);
-    const Eigen::Vector3d x = st.box.h() * s;
-    for (int c = 0; c < 3; ++c)
-      pos[3 * id + c] = x[c];
-    diam[id] = st.diameter[i];
-    species[id] = st.species[i];
-  }
+  const Configuration c = configuration_of(r.final_state);
+  const std::size_t n = c.diameters.size();
   const std::string fin = prefix + "/final";
-  w.dataset(fin + "/positions", pos, {n, 3});
-  w.dataset(fin + "/diameters", diam);
-  w.dataset(fin + "/species", species);
-  const Eigen::Matrix3d cell = st.box.h().transpose();
-  std::vector<double> cellv(9);
-  for (int a = 0; a < 3; ++a)
-    for (int b = 0; b < 3; ++b)
-      cellv[3 * a + b] = cell(a, b);
-  w.dataset(fin + "/cell", cellv, {3, 3});
-  w.attr(fin, "strain", st.box.strain);
-  w.attr(fin, "time", st.time);
+  w.dataset(fin + "/positions", c.positions, {n, 3});
+  w.dataset(fin + "/diameters", c.diameters);
+  w.dataset(fin + "/species", c.species);
+  w.dataset(fin + "/cell", c.cell, {3, 3});
+  w.attr(fin, "strain", c.strain);
+  w.attr(fin, "time", c.time);
 
   const std::string sm = prefix + "/summary";
   w.group(sm);
@@ -1127,9 +1170,25 @@ bool print_summary(const RunSpec& spec, const std::vector<ReplicaResult>& result
 
 }  // namespace
 
-int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOptions& output) {
-  check_output(spec.file, output);
-  std::vector<ReplicaResult> results;
+Summary combined_summary(const std::vector<ReplicaResult>& replicas) {
+  if (replicas.size() == 1)
+    return replicas.front().summary;
+  std::vector<Summary> sums;
+  for (const auto& r : replicas)
+    sums.push_back(r.summary);
+  return combine_replicas(sums);
+}
+
+RunOutcome run_replicas(const RunSpec& spec, const RunOptions& options,
+                        const OutputOptions& output) {
+  if (output.write) {
+    check_output(spec.file, output);
+  } else if (spec.trajectory_every > 0.0) {
+    throw ConfigError("[output] trajectory_every = " + fmt(spec.trajectory_every) +
+                      " needs an output file; allowed 0 for a run that writes no files");
+  }
+  RunOutcome outcome;
+  std::vector<ReplicaResult>& results = outcome.replicas;
   if (output.continue_from)
     results = *output.continue_from;
   const std::string stem = stem_of(spec.file);
@@ -1142,6 +1201,8 @@ int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOp
       static_cast<std::size_t>(std::floor((spec.t_eq + spec.t_av) / spec.sample_every + 1e-9));
   // The .part file: every replica so far, the current one as it stands.
   auto write_part = [&](std::size_t k, const ReplicaResult& current) {
+    if (!output.write)
+      return;
     std::vector<ReplicaResult> all(results.begin(), results.begin() + std::ptrdiff_t(k));
     all.push_back(current);
     H5Writer w(spec.file + ".part", ".tmp");
@@ -1160,7 +1221,8 @@ int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOp
     RunOptions o = options;
     o.label = stem + replica_suffix(k, count);
     o.checkpoint_every = spec.checkpoint_every;
-    o.checkpoint = [&, k](const ReplicaResult& current) { write_part(k, current); };
+    if (output.write)
+      o.checkpoint = [&, k](const ReplicaResult& current) { write_part(k, current); };
     ReplicaResult r = run_replica(spec, spec.seed + k, o, from);
     if (k < results.size())
       results[k] = std::move(r);
@@ -1168,40 +1230,53 @@ int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOp
       results.push_back(std::move(r));
     const ReplicaResult& last = results[k];
     const bool ok = last.status == "complete";
-    write_xyz_file(o.label + (ok ? ".final.xyz" : ".last.xyz"), last.final_state);
+    if (output.write)
+      write_xyz_file(o.label + (ok ? ".final.xyz" : ".last.xyz"), last.final_state);
     if (stopped_by_budget(last.status)) {
       // Finished without a summary: the file is final, the next replica goes on.
-      std::fprintf(stderr, "jamflow: %s: %s\n", o.label.c_str(), last.status.c_str());
+      if (output.write)
+        std::fprintf(stderr, "jamflow: %s: %s\n", o.label.c_str(), last.status.c_str());
     } else if (!ok) {
       write_part(k, last);
-      std::fprintf(stderr, "jamflow: %s; data kept in %s.part (continue it with --resume)\n",
-                   last.status.c_str(), spec.file.c_str());
-      if (last.signal != 0)
-        return 128 + last.signal;
-      return last.status.rfind("interrupted", 0) == 0 ? 130 : 1;
+      if (output.write) {
+        std::fprintf(stderr, "jamflow: %s; data kept in %s.part (continue it with --resume)\n",
+                     last.status.c_str(), spec.file.c_str());
+      }
+      outcome.code = last.signal != 0                           ? 128 + last.signal
+                     : last.status.rfind("interrupted", 0) == 0 ? 130
+                                                                : 1;
+      return outcome;
     }
     if (k + 1 < count)
       write_part(k, last);
   }
-  std::string write_error;
+  if (!output.write)
+    return outcome;
   try {
     write_run_file(spec, results, spec.file);
     std::error_code ec;
     std::filesystem::remove(spec.file + ".part", ec);
   } catch (const std::exception& e) {
-    write_error = e.what();
+    outcome.write_error = e.what();
   }
+  return outcome;
+}
+
+int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOptions& output) {
+  const RunOutcome outcome = run_replicas(spec, options, output);
+  if (outcome.code != 0)
+    return outcome.code;
   bool budget = false;
-  for (const auto& r : results)
+  for (const auto& r : outcome.replicas)
     budget = budget || stopped_by_budget(r.status);
   // A replica stopped by the budget has no summary to print: the file says where it stopped.
-  const bool failed_verdict = !budget && print_summary(spec, results);
+  const bool failed_verdict = !budget && print_summary(spec, outcome.replicas);
   if (budget)
     std::printf("jamflow run: stopped by [run] max_force_evaluations (no summary) -> %s\n",
                 spec.file.c_str());
-  if (!write_error.empty()) {
-    std::fprintf(stderr, "jamflow: error: %s; the data is kept in %s.part\n", write_error.c_str(),
-                 spec.file.c_str());
+  if (!outcome.write_error.empty()) {
+    std::fprintf(stderr, "jamflow: error: %s; the data is kept in %s.part\n",
+                 outcome.write_error.c_str(), spec.file.c_str());
     return 1;
   }
   if (failed_verdict && output.strict) {

@@ -55,7 +55,9 @@ struct RunSpec {
   std::int64_t max_force_evaluations = 0;
   // [output]
   std::string file = "jamflow.h5";
-  double trajectory_every = 0.0;    // 0: no trajectory file
+  double trajectory_every = 0.0;  // 0: no trajectory file
+  // "xyz" (<stem>.traj.xyz), "h5md" (<stem>.traj.h5md, H5MD 1.1) or "both".
+  std::string trajectory_format = "xyz";
   double checkpoint_every = 600.0;  // seconds of wall time between checkpoints
   // Parts: the ensemble is stateless and shared; integrators keep history and counters, so
   // each replica makes its own from the typed settings.
@@ -195,8 +197,22 @@ void write_run_layout(H5Writer& w, const RunSpec& spec, const std::vector<Replic
 bool write_run_file(const RunSpec& spec, const std::vector<ReplicaResult>& replicas,
                     const std::string& path);
 
+// The final configuration as outputs give it: particles in id order, real-space positions
+// wrapped into the cell, rows of `cell` the lattice vectors (row-major 3 x 3).
+struct Configuration {
+  std::vector<double> positions;  // N x 3, row-major
+  std::vector<double> diameters;
+  std::vector<std::int64_t> species;
+  std::vector<double> cell;  // 3 x 3, row-major
+  double strain = 0.0, time = 0.0;
+};
+Configuration configuration_of(const State& state);
+
 // How run_and_write treats existing files and earlier runs.
 struct OutputOptions {
+  // false: nothing is written (no HDF5, XYZ or checkpoint file; the caller keeps the results);
+  // a trajectory then is a ConfigError.
+  bool write = true;
   bool force = false;  // overwrite an existing output or checkpoint
   // Continue these replicas (read from a checkpoint) instead of starting afresh.
   std::optional<std::vector<ReplicaResult>> continue_from;
@@ -209,9 +225,27 @@ struct OutputOptions {
 // no checkpoint of another run beside it. A ConfigError names [output] file and the reason.
 void check_output(const std::string& file, const OutputOptions& output);
 
-// Runs all replicas of a spec (or continues them) and writes the output. Returns the process
-// exit code: 0, 1 for a failed run, 3 for a failed verdict with `strict`, 128 + the signal for
-// a run stopped by a signal (130 when interrupted by `stop`).
+// What run_replicas did: every replica run so far, and how it ended.
+struct RunOutcome {
+  std::vector<ReplicaResult> replicas;
+  // 0 when every replica is complete, 1 when one failed, 128 + the signal when one was stopped
+  // by a signal, 130 when interrupted by `stop`.
+  int code = 0;
+  std::string write_error;  // the final file could not be written (the data is in OUT.part)
+};
+
+// Runs all replicas of a spec (or continues them) and writes the output (with output.write),
+// without printing anything but the progress line. A replica that does not complete ends the
+// run: its checkpoint is kept in OUT.part.
+RunOutcome run_replicas(const RunSpec& spec, const RunOptions& options,
+                        const OutputOptions& output = {});
+
+// The summary of a finished run: the one replica's, or combine_replicas() of several.
+Summary combined_summary(const std::vector<ReplicaResult>& replicas);
+
+// run_replicas(), then the summary on stdout. Returns the process exit code: 0, 1 for a failed
+// run or output, 3 for a failed verdict with `strict`, 128 + the signal for a run stopped by a
+// signal (130 when interrupted by `stop`).
 int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOptions& output = {});
 
 }  // namespace jamflow

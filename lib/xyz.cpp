@@ -534,7 +534,9 @@ void write_xyz(std::ostream& out, const State& state) {
         s[d] = 0.0;  // a tiny negative value can round up to 1
     }
     const Eigen::Vector3d r = h * s;
-    text += state.species[i] == 0 ? 'A' : 'B';
+    // Chemical symbols, so that ASE (which accepts nothing else) and OVITO read the file as
+    // it is: H for the small species, He for the large one. Reading ignores the labels.
+    text += state.species[i] == 0 ? "H" : "He";
     for (int d = 0; d < 3; ++d) {
       text += ' ';
       append_number(text, r[d]);

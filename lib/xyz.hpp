@@ -31,7 +31,8 @@ inline constexpr double kDiameterTolerance = 1e-6;
 // ConfigError (naming the path, the line, the value and what is allowed).
 State read_xyz(const std::string& path);
 
-// Writes one frame, particles in id order, real-space positions wrapped into the cell.
+// Writes one frame, particles in id order, real-space positions wrapped into the cell. Species
+// are labelled with chemical symbols (H small, He large), which ASE and OVITO accept.
 void write_xyz(std::ostream& out, const State& state);
 
 // Writes one frame to a file atomically (temporary file then rename).

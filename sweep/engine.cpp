@@ -44,7 +44,9 @@ std::string jamflow_exe() {
 }
 
 int run_plan(const Plan& plan, const EngineOptions& o) {
-  install_signal_handlers();
+  std::atomic<int>* stop = o.stop ? o.stop : &g_stop;
+  if (!o.stop)
+    install_signal_handlers();
   const std::string exe = o.exe.empty() ? jamflow_exe() : o.exe;
   if (!o.reuse.empty() && (!mpi_launched() || launched_rank() == 0)) {
     prepare_out_dir(plan);
@@ -54,6 +56,10 @@ int run_plan(const Plan& plan, const EngineOptions& o) {
                    plan.name.c_str(), r.replicas);
   }
   if (mpi_launched()) {
+    if (o.stop)
+      throw ConfigError(
+          "a sweep under an MPI launcher runs from `jamflow sweep`; allowed "
+          "without a launcher here");
     if (o.task >= 0)
       throw ConfigError(
           "--task under an MPI launcher; allowed one of them (MPI ranks share all "
@@ -71,7 +77,7 @@ int run_plan(const Plan& plan, const EngineOptions& o) {
     }
   }
   const int cores = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  return run_local(plan, o.jobs > 0 ? o.jobs : cores, share, o.quiet, exe, &g_stop, &g_checkpoint);
+  return run_local(plan, o.jobs > 0 ? o.jobs : cores, share, o.quiet, exe, stop, &g_checkpoint);
 }
 
 std::string write_slurm_script(const Plan& plan, SlurmOptions options) {

@@ -2,6 +2,7 @@
 // process was started (local cores, one Slurm array task's share, or MPI ranks), or write the
 // Slurm job array for it.
 #pragma once
+#include <atomic>
 #include <string>
 #include <vector>
 
@@ -19,10 +20,14 @@ struct EngineOptions {
   // Folders of other sweeps: finished replicas of the very same scene are copied in, not rerun
   // (sweep/reuse.hpp).
   std::vector<std::string> reuse;
+  // Set by the caller to stop (a signal number, e.g. SIGINT: the running tasks checkpoint and
+  // the engine stops). Given, run_plan installs no signal handlers: the caller keeps its own
+  // (the Python module). Not under an MPI launcher.
+  std::atomic<int>* stop = nullptr;
 };
 
 // SIGINT, SIGTERM, SIGHUP: the running tasks checkpoint and the engine stops; SIGUSR1: the
-// running tasks checkpoint and go on. Installed by run_plan.
+// running tasks checkpoint and go on. Installed by run_plan (unless EngineOptions::stop).
 void install_signal_handlers();
 
 // Runs the plan's tasks that are not finished. Under an MPI launcher with several ranks the

@@ -151,7 +151,7 @@ TEST_F(XyzTest, HeaderHasLatticeAndProperties) {
   // First particle line is id 0, labelled by species.
   const auto id0 = std::find(state.id.begin(), state.id.end(), 0) - state.id.begin();
   std::getline(in, row);
-  EXPECT_EQ(row.substr(0, 2), state.species[id0] == 0 ? "A " : "B ");
+  EXPECT_EQ(row.substr(0, row.find(' ')), state.species[id0] == 0 ? "H" : "He");
   std::size_t rows = 1;
   while (std::getline(in, row))
     ++rows;

@@ -1,0 +1,837 @@
+// The Python module `jamflow` (pybind11): scenes, runs, simulations under a Python protocol
+// loop, sweeps and analyses. Every run goes through the run driver (driver/run.hpp) and every
+// simulation through driver/simulation.hpp: this file only converts between Python and C++.
+//
+// While the engine runs, the GIL is released and the engine works in a thread of its own; the
+// calling thread wakes every 50 ms to let Python handle signals, and a KeyboardInterrupt
+// (Ctrl-C) raises the engine's stop flag: the run stops at the end of a step, keeps its
+// checkpoint (OUT.h5.part) as the command line does, and the KeyboardInterrupt propagates.
+#include <dlfcn.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "analysis/analyze_cli.hpp"
+#include "driver/run.hpp"
+#include "driver/simulation.hpp"
+#include "lib/config.hpp"
+#include "lib/error.hpp"
+#include "sweep/collect.hpp"
+#include "sweep/engine.hpp"
+#include "sweep/plan.hpp"
+
+#ifndef JAMFLOW_VERSION
+#define JAMFLOW_VERSION "unknown"
+#endif
+#ifndef JAMFLOW_MODULE_TO_BIN
+#define JAMFLOW_MODULE_TO_BIN "../../../bin"
+#endif
+
+namespace py = pybind11;
+namespace fs = std::filesystem;
+using jamflow::ConfigError;
+
+namespace {
+
+std::string one_line(std::string text) {
+  for (char& c : text) {
+    if (c == '\n' || c == '\r')
+      c = ' ';
+  }
+  while (!text.empty() && text.back() == ' ')
+    text.pop_back();
+  return text;
+}
+
+// Runs `work` (which polls `stop`) in a thread of its own with the GIL released; the calling
+// thread lets Python handle signals every 50 ms. A KeyboardInterrupt (or any exception a signal
+// handler raises) sets `stop`, waits for the work to end and propagates.
+template <class Work>
+void run_released(Work&& work, std::atomic<bool>& stop) {
+  std::mutex mutex;
+  std::condition_variable done_cv;
+  bool done = false, interrupted = false;
+  std::exception_ptr error;
+  {
+    py::gil_scoped_release release;
+    std::thread worker([&] {
+      try {
+        work();
+      } catch (...) {
+        error = std::current_exception();
+      }
+      std::lock_guard<std::mutex> lock(mutex);
+      done = true;
+      done_cv.notify_all();
+    });
+    std::unique_lock<std::mutex> lock(mutex);
+    while (!done) {
+      done_cv.wait_for(lock, std::chrono::milliseconds(50));
+      if (done || interrupted)
+        continue;
+      lock.unlock();
+      {
+        py::gil_scoped_acquire acquire;
+        if (PyErr_CheckSignals() != 0) {
+          interrupted = true;  // the exception stays set for this thread
+          stop.store(true);
+        }
+      }
+      lock.lock();
+    }
+    lock.unlock();
+    worker.join();
+  }
+  if (interrupted)
+    throw py::error_already_set();
+  if (error)
+    std::rethrow_exception(error);
+}
+
+// ---- Python values <-> TOML ----------------------------------------------------------------
+
+std::string text_of(py::handle v) {
+  return py::repr(v).cast<std::string>();
+}
+
+std::unique_ptr<toml::node> to_toml(py::handle v, const std::string& key);
+
+toml::table to_table(const py::dict& d, const std::string& where) {
+  toml::table t;
+  for (auto [k, v] : d) {
+    if (!py::isinstance<py::str>(k)) {
+      throw ConfigError(where + " key " + text_of(k) + " is not a string; allowed string keys");
+    }
+    const std::string key = k.cast<std::string>();
+    const std::string path = where.empty() ? key : where + "." + key;
+    to_toml(v, path)->visit([&](auto&& node) { t.insert_or_assign(key, std::move(node)); });
+  }
+  return t;
+}
+
+std::unique_ptr<toml::node> to_toml(py::handle v, const std::string& key) {
+  if (py::isinstance<py::bool_>(v))
+    return std::make_unique<toml::value<bool>>(v.cast<bool>());
+  if (PyLong_Check(v.ptr()))
+    return std::make_unique<toml::value<std::int64_t>>(v.cast<std::int64_t>());
+  if (PyFloat_Check(v.ptr()))
+    return std::make_unique<toml::value<double>>(v.cast<double>());
+  if (py::isinstance<py::str>(v))
+    return std::make_unique<toml::value<std::string>>(v.cast<std::string>());
+  if (py::isinstance<py::dict>(v))
+    return std::make_unique<toml::table>(to_table(v.cast<py::dict>(), key));
+  if (py::isinstance<py::list>(v) || py::isinstance<py::tuple>(v)) {
+    auto a = std::make_unique<toml::array>();
+    for (py::handle item : v)
+      to_toml(item, key)->visit([&](auto&& node) { a->push_back(std::move(node)); });
+    return a;
+  }
+  if (py::hasattr(v, "__fspath__"))
+    return std::make_unique<toml::value<std::string>>(
+        py::module_::import("os").attr("fspath")(v).cast<std::string>());
+  // numpy scalars and other numbers
+  if (py::hasattr(v, "__index__"))
+    return std::make_unique<toml::value<std::int64_t>>(
+        py::reinterpret_steal<py::object>(PyNumber_Index(v.ptr())).cast<std::int64_t>());
+  if (py::hasattr(v, "__float__"))
+    return std::make_unique<toml::value<double>>(
+        py::float_(py::reinterpret_borrow<py::object>(v)).cast<double>());
+  throw ConfigError(key + " = " + text_of(v) +
+                    " is not a scene value; allowed numbers, strings, booleans, lists and tables");
+}
+
+py::object to_python(const toml::node& n) {
+  if (auto t = n.as_table()) {
+    py::dict d;
+    for (const auto& [k, v] : *t)
+      d[py::str(std::string(k.str()))] = to_python(v);
+    return d;
+  }
+  if (auto a = n.as_array()) {
+    py::list l;
+    for (const auto& v : *a)
+      l.append(to_python(v));
+    return l;
+  }
+  if (auto v = n.as_boolean())
+    return py::bool_(v->get());
+  if (auto v = n.as_integer())
+    return py::int_(v->get());
+  if (auto v = n.as_floating_point())
+    return py::float_(v->get());
+  if (auto v = n.as_string())
+    return py::str(v->get());
+  return py::none();  // dates and times: not in scenes
+}
+
+// ---- Scene ---------------------------------------------------------------------------------
+
+// A scene and its validation: every change is checked as `jamflow run` checks a scene.
+class PyScene {
+ public:
+  explicit PyScene(jamflow::Scene scene) : scene_(std::move(scene)) { check(); }
+
+  static PyScene from_text(const std::string& text, const std::string& source) {
+    return PyScene(jamflow::Scene::parse(text, source));
+  }
+  static PyScene from_file(const std::string& path) { return PyScene(jamflow::Scene::load(path)); }
+  static PyScene from_dict(const py::dict& d) {
+    jamflow::Scene scene = jamflow::Scene::parse("", "the scene dict");
+    for (auto [k, v] : d) {
+      const std::string name = py::str(k).cast<std::string>();
+      if (!py::isinstance<py::dict>(v)) {
+        throw ConfigError("scene dict entry '" + name + "' = " + text_of(v) +
+                          " is not a table; allowed a dict per section, such as {\"shear\": "
+                          "{\"rate\": 1e-4}}");
+      }
+      scene.set_section(name, to_table(v.cast<py::dict>(), name));
+    }
+    return PyScene(std::move(scene));
+  }
+  // A dict, a path (str without TOML syntax, or os.PathLike) or TOML text.
+  static PyScene from_any(py::handle source) {
+    if (py::isinstance<PyScene>(source))
+      return source.cast<PyScene>();
+    if (py::isinstance<py::dict>(source))
+      return from_dict(source.cast<py::dict>());
+    if (py::hasattr(source, "__fspath__"))
+      return from_file(py::module_::import("os").attr("fspath")(source).cast<std::string>());
+    if (py::isinstance<py::str>(source)) {
+      const std::string s = source.cast<std::string>();
+      if (s.find_first_of("\n=[") != std::string::npos)
+        return from_text(s, "the scene string");
+      return from_file(s);
+    }
+    throw ConfigError("scene " + text_of(source) +
+                      " is not a scene; allowed a jamflow.Scene, a dict, TOML text or a path");
+  }
+
+  void set(const std::string& key, py::handle value) {
+    jamflow::Scene changed = scene_;
+    changed.set_value(key, *to_toml(value, key));
+    check(changed);
+    scene_ = std::move(changed);
+  }
+  // Several keys at once, checked together (e.g. a new ensemble kind and its pressure).
+  void update(const py::dict& values) {
+    jamflow::Scene changed = scene_;
+    for (auto [k, v] : values) {
+      const std::string key = py::str(k).cast<std::string>();
+      changed.set_value(key, *to_toml(v, key));
+    }
+    check(changed);
+    scene_ = std::move(changed);
+  }
+  py::object get(const std::string& key) const {
+    const auto dot = key.find('.');
+    const std::string section = key.substr(0, dot);
+    const toml::table* t = scene_.table(section);
+    if (!t)
+      throw py::key_error(key);
+    if (dot == std::string::npos)
+      return to_python(*t);
+    const toml::node* n = t->at_path(key.substr(dot + 1)).node();
+    if (!n)
+      throw py::key_error(key);
+    return to_python(*n);
+  }
+  py::dict to_dict() const {
+    py::dict d;
+    for (const char* name : {"system", "ensemble", "shear", "integrator", "run", "output"}) {
+      if (const toml::table* t = scene_.table(name))
+        d[name] = to_python(*t);
+    }
+    return d;
+  }
+  std::string text() const { return scene_.text(); }
+  const jamflow::Scene& scene() const { return scene_; }
+  jamflow::RunSpec spec() const { return jamflow::parse_run_spec(scene_); }
+
+ private:
+  static void check(const jamflow::Scene& scene) { (void)jamflow::parse_run_spec(scene); }
+  void check() const { check(scene_); }
+  jamflow::Scene scene_;
+};
+
+// ---- Results -------------------------------------------------------------------------------
+
+py::array_t<double> array(const std::vector<double>& v, std::vector<py::ssize_t> shape = {}) {
+  if (shape.empty())
+    shape = {py::ssize_t(v.size())};
+  py::array_t<double> a(shape);
+  if (!v.empty())
+    std::memcpy(a.mutable_data(), v.data(), v.size() * sizeof(double));
+  return a;
+}
+
+py::array_t<std::int64_t> array(const std::vector<std::int64_t>& v) {
+  py::array_t<std::int64_t> a(py::ssize_t(v.size()));
+  if (!v.empty())
+    std::memcpy(a.mutable_data(), v.data(), v.size() * sizeof(std::int64_t));
+  return a;
+}
+
+py::dict configuration_dict(const jamflow::Configuration& c) {
+  const auto n = py::ssize_t(c.diameters.size());
+  py::dict d;
+  d["positions"] = array(c.positions, {n, 3});
+  d["diameters"] = array(c.diameters);
+  d["species"] = array(c.species);
+  d["cell"] = array(c.cell, {3, 3});
+  d["strain"] = c.strain;
+  d["time"] = c.time;
+  return d;
+}
+
+py::dict timeseries_dict(const jamflow::RunSpec& spec, const jamflow::Series& s) {
+  using jamflow::Sample;
+  py::dict d;
+  d["time"] = array(s.column(&Sample::time));
+  d["strain"] = array(s.column(&Sample::strain));
+  d["volume"] = array(s.column(&Sample::volume));
+  d["phi"] = array(s.column(&Sample::phi));
+  d["pressure"] = array(s.column(&Sample::pressure));
+  d["sigma_xy"] = array(s.column(&Sample::sigma_xy));
+  d["energy"] = array(s.column(&Sample::energy));
+  d["dissipation"] = array(s.column(&Sample::dissipation));
+  if (spec.ensemble->has_piston())
+    d["piston_dissipation"] = array(s.column(&Sample::piston_dissipation));
+  return d;
+}
+
+// The /summary attributes of the run file, as a dict.
+py::dict summary_dict(const jamflow::RunSpec& spec, const jamflow::Summary& sum,
+                      const jamflow::ReplicaResult& r) {
+  py::dict d;
+  for (const auto& [k, v] : sum.values)
+    d[py::str(k)] = v;
+  for (const auto& [k, v] : sum.verdicts)
+    d[py::str("verdict_" + k)] = v;
+  for (const auto& [k, v] : r.summary.texts)
+    d[py::str(k)] = v;
+  d["N"] = py::int_(r.final_state.size());
+  d["alpha"] = spec.alpha;
+  d["ensemble"] = spec.ensemble->name();
+  d["shear_rate"] = spec.shear_rate;
+  if (const auto p = spec.ensemble->imposed_pressure())
+    d["pressure_imposed"] = *p;
+  d["integrator"] = spec.integrator.kind;
+  for (const auto& [k, v] : r.integrator_stats)
+    d[py::str("integrator_" + k)] = v;
+  d["wall_seconds"] = r.wall_seconds;
+  d["status"] = r.status;
+  return d;
+}
+
+struct RunResult {
+  py::dict summary, timeseries, final_;
+  py::list warnings, replicas;
+  py::object file = py::none();
+  std::string status, scene;
+  std::uint64_t seed = 0;
+};
+
+RunResult replica_result(const jamflow::RunSpec& spec, const jamflow::ReplicaResult& r) {
+  RunResult out;
+  out.summary = summary_dict(spec, r.summary, r);
+  out.timeseries = timeseries_dict(spec, r.series);
+  out.final_ = configuration_dict(jamflow::configuration_of(r.final_state));
+  for (const auto& w : r.summary.warnings)
+    out.warnings.append(w);
+  out.status = r.status;
+  out.scene = spec.scene_text;
+  out.seed = r.seed;
+  return out;
+}
+
+RunResult run(py::handle scene_source, py::object out, bool force, bool progress) {
+  jamflow::Scene scene = PyScene::from_any(scene_source).scene();
+  jamflow::OutputOptions output;
+  output.force = force;
+  output.write = !out.is_none();
+  if (output.write) {
+    // As `jamflow run -o OUT`: the stored scene names the file.
+    const std::string file = py::module_::import("os").attr("fspath")(out).cast<std::string>();
+    scene.set_value("output.file", toml::value<std::string>(file));
+  }
+  const jamflow::RunSpec spec = jamflow::parse_run_spec(scene);
+  std::atomic<bool> stop{false};
+  jamflow::RunOptions options;
+  options.quiet = !progress;
+  options.stop = &stop;
+  jamflow::RunOutcome outcome;
+  run_released([&] { outcome = jamflow::run_replicas(spec, options, output); }, stop);
+  if (outcome.code != 0) {
+    const std::string status = outcome.replicas.empty() ? "" : outcome.replicas.back().status;
+    if (outcome.code == 130) {  // stopped through `stop`
+      PyErr_SetString(PyExc_KeyboardInterrupt, status.c_str());
+      throw py::error_already_set();
+    }
+    throw jamflow::IntegrationError(
+        status + (output.write ? "; the data is kept in " + spec.file + ".part" : std::string()));
+  }
+  if (!outcome.write_error.empty())
+    throw jamflow::IoError(outcome.write_error + "; the data is kept in " + spec.file + ".part");
+  const auto& reps = outcome.replicas;
+  RunResult result = replica_result(spec, reps.front());
+  if (reps.size() > 1) {
+    jamflow::Summary all = jamflow::combined_summary(reps);
+    result.summary = summary_dict(spec, all, reps.front());
+    double wall = 0.0;
+    for (const auto& r : reps) {
+      wall += r.wall_seconds;
+      result.replicas.append(py::cast(replica_result(spec, r)));
+    }
+    result.summary["wall_seconds_total"] = wall;
+    result.warnings = py::list();
+    for (const auto& w : all.warnings)
+      result.warnings.append(w);
+  }
+  if (output.write)
+    result.file = py::str(spec.file);
+  return result;
+}
+
+// ---- Simulation ----------------------------------------------------------------------------
+
+class PySimulation {
+ public:
+  PySimulation(py::handle scene_source, py::object seed) {
+    PyScene scene = PyScene::from_any(scene_source);
+    const jamflow::RunSpec spec = scene.spec();
+    const std::uint64_t s = seed.is_none() ? spec.seed : seed.cast<std::uint64_t>();
+    sim_ = std::make_unique<jamflow::Simulation>(spec, s);
+  }
+  void advance_to(double t_end) {
+    if (!std::isfinite(t_end))
+      throw ConfigError("time " + jamflow::fmt(t_end) + " is not finite; allowed a finite time");
+    std::atomic<bool> stop{false};
+    run_released([&] { sim_->advance_to(t_end, &stop); }, stop);
+  }
+  void advance(double duration) {
+    if (!(duration >= 0.0) || !std::isfinite(duration)) {
+      throw ConfigError("duration " + jamflow::fmt(duration) +
+                        " is out of range; allowed a finite time >= 0");
+    }
+    advance_to(sim_->time() + duration);
+  }
+  py::dict observables() {
+    const jamflow::Sample s = sim_->sample();
+    py::dict d;
+    d["time"] = s.time;
+    d["strain"] = s.strain;
+    d["volume"] = s.volume;
+    d["phi"] = s.phi;
+    d["pressure"] = s.pressure;
+    d["sigma_xy"] = s.sigma_xy;
+    d["energy"] = s.energy;
+    d["dissipation"] = s.dissipation;
+    if (sim_->spec().ensemble->has_piston())
+      d["piston_dissipation"] = s.piston_dissipation;
+    return d;
+  }
+  py::array_t<double> positions() const {
+    const auto c = sim_->configuration();
+    return array(c.positions, {py::ssize_t(c.diameters.size()), 3});
+  }
+  py::array_t<double> forces() {
+    const auto f = sim_->forces();
+    return array(f, {py::ssize_t(f.size() / 3), 3});
+  }
+  py::dict configuration() const { return configuration_dict(sim_->configuration()); }
+  py::dict statistics() const {
+    py::dict d;
+    for (const auto& [k, v] : sim_->statistics())
+      d[py::str(k)] = v;
+    return d;
+  }
+  jamflow::Simulation& sim() { return *sim_; }
+  const jamflow::Simulation& sim() const { return *sim_; }
+
+ private:
+  std::unique_ptr<jamflow::Simulation> sim_;
+};
+
+// ---- Sweeps --------------------------------------------------------------------------------
+
+// The jamflow binary that runs a sweep's points: $JAMFLOW_EXE, else the one beside this module
+// (the build folder), else the installed one (the module's install folder -> bin).
+std::string jamflow_exe_for_module() {
+  if (const char* e = std::getenv("JAMFLOW_EXE"); e && *e)
+    return e;
+  Dl_info info{};
+  if (::dladdr(reinterpret_cast<void*>(&jamflow_exe_for_module), &info) && info.dli_fname) {
+    const fs::path here = fs::path(info.dli_fname).parent_path();
+    for (const fs::path& p : {here / "jamflow", here / JAMFLOW_MODULE_TO_BIN / "jamflow"}) {
+      std::error_code ec;
+      if (fs::is_regular_file(p, ec) && ::access(p.c_str(), X_OK) == 0)
+        return fs::weakly_canonical(p, ec).string();
+    }
+  }
+  throw jamflow::IoError(
+      "the jamflow binary was not found beside the module or in its install folder; allowed: "
+      "set JAMFLOW_EXE to its path");
+}
+
+// A CSV table as {column: numpy array (numbers; empty cells NaN) or list of str}.
+py::dict read_table(const std::string& path) {
+  std::ifstream in(path);
+  if (!in)
+    throw jamflow::IoError("cannot read table '" + path + "'");
+  auto split = [](const std::string& line) {
+    std::vector<std::string> cells;
+    std::string cell;
+    std::istringstream s(line);
+    while (std::getline(s, cell, ','))
+      cells.push_back(cell);
+    if (!line.empty() && line.back() == ',')
+      cells.emplace_back();
+    return cells;
+  };
+  std::string line;
+  std::getline(in, line);
+  const std::vector<std::string> header = split(line);
+  std::vector<std::vector<std::string>> columns(header.size());
+  while (std::getline(in, line)) {
+    if (line.empty())
+      continue;
+    auto cells = split(line);
+    cells.resize(header.size());
+    for (std::size_t c = 0; c < header.size(); ++c)
+      columns[c].push_back(cells[c]);
+  }
+  py::dict table;
+  for (std::size_t c = 0; c < header.size(); ++c) {
+    std::vector<double> numbers;
+    bool numeric = true;
+    for (const auto& cell : columns[c]) {
+      if (cell.empty()) {
+        numbers.push_back(std::nan(""));
+        continue;
+      }
+      char* end = nullptr;
+      const double v = std::strtod(cell.c_str(), &end);
+      if (end == cell.c_str() || *end != '\0') {
+        numeric = false;
+        break;
+      }
+      numbers.push_back(v);
+    }
+    if (numeric)
+      table[py::str(header[c])] = array(numbers);
+    else
+      table[py::str(header[c])] = py::cast(columns[c]);
+  }
+  return table;
+}
+
+py::dict sweep(py::object path, py::object out, int jobs, bool progress) {
+  const std::string file = py::module_::import("os").attr("fspath")(path).cast<std::string>();
+  const std::string out_dir =
+      out.is_none() ? std::string()
+                    : py::module_::import("os").attr("fspath")(out).cast<std::string>();
+  const jamflow::sweep::Plan plan = jamflow::sweep::load_plan(file, out_dir);
+  jamflow::sweep::EngineOptions o;
+  o.jobs = jobs;
+  o.quiet = !progress;
+  o.exe = jamflow_exe_for_module();
+  std::atomic<int> signal{0};
+  o.stop = &signal;
+  std::atomic<bool> stop{false};
+  int code = 0;
+  // The engine polls its own flag: raise it from the Python side's stop flag.
+  std::jthread relay([&](std::stop_token token) {
+    while (!token.stop_requested()) {
+      if (stop.load()) {
+        signal.store(SIGINT);
+        return;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  });
+  run_released([&] { code = jamflow::sweep::run_plan(plan, o); }, stop);
+  relay.request_stop();
+  const std::string table = (fs::path(plan.out_dir) / "table.csv").string();
+  const jamflow::sweep::Collected collected = jamflow::sweep::collect(plan, table);
+  if (code != 0) {
+    std::string why;
+    for (const auto& l : collected.left_out)
+      why += (why.empty() ? "" : "; ") + l;
+    throw jamflow::IntegrationError("sweep " + plan.name + ": some points did not finish (" + why +
+                                    "); their logs are in " + plan.out_dir + "/points");
+  }
+  py::dict result = read_table(table);
+  return result;
+}
+
+py::list sweep_points(py::object path) {
+  const std::string file = py::module_::import("os").attr("fspath")(path).cast<std::string>();
+  const jamflow::sweep::Plan plan = jamflow::sweep::load_plan(file, "");
+  py::list points;
+  auto tomllib = py::module_::import("tomllib");
+  for (const auto& p : plan.points) {
+    py::dict d;
+    d["name"] = p.name;
+    py::dict values;
+    for (const auto& [k, v] : p.values)
+      values[py::str(k)] = tomllib.attr("loads")("v = " + v)["v"];
+    d["values"] = values;
+    d["N"] = p.n;
+    d["scene"] = py::cast(PyScene(p.scene));
+    points.append(d);
+  }
+  return points;
+}
+
+// ---- Analyses ------------------------------------------------------------------------------
+
+// `jamflow analyze KIND DATA... -o OUT.json [options]` with stderr captured: returns the JSON
+// as Python objects; a bad input is a ConfigError with the command line's one-line message.
+py::object analyze(const std::string& kind, py::object data, py::object out, bool plots,
+                   py::kwargs options) {
+  std::vector<std::string> args{kind == "hard_sphere"     ? "hard-sphere"
+                                : kind == "olsson_teitel" ? "olsson-teitel"
+                                                          : kind};
+  auto os = py::module_::import("os");
+  if (py::isinstance<py::str>(data) || py::hasattr(data, "__fspath__")) {
+    args.push_back(os.attr("fspath")(data).cast<std::string>());
+  } else {
+    for (py::handle d : data)
+      args.push_back(os.attr("fspath")(d).cast<std::string>());
+  }
+  std::string json_path;
+  fs::path scratch;
+  if (out.is_none()) {
+    char dir[] = "/tmp/jamflow-analyze-XXXXXX";
+    if (!::mkdtemp(dir))
+      throw jamflow::IoError("cannot create a scratch folder in /tmp");
+    scratch = dir;
+    json_path = (scratch / "analysis.json").string();
+  } else {
+    json_path = os.attr("fspath")(out).cast<std::string>();
+  }
+  args.insert(args.end(), {"-o", json_path});
+  if (!plots)
+    args.push_back("--no-plots");
+  for (auto [k, v] : options) {
+    std::string flag = "--" + k.cast<std::string>();
+    for (char& c : flag)
+      if (c == '_')
+        c = '-';
+    if (py::isinstance<py::bool_>(v)) {
+      if (v.cast<bool>())
+        args.push_back(flag);
+      continue;
+    }
+    args.push_back(flag);
+    args.push_back(py::str(v).cast<std::string>());
+  }
+  // stderr to a file for the call, then passed on.
+  char log_name[] = "/tmp/jamflow-analyze-log-XXXXXX";
+  const int log_fd = ::mkstemp(log_name);
+  if (log_fd < 0)
+    throw jamflow::IoError("cannot create a scratch file in /tmp");
+  int code = 0;
+  {
+    py::gil_scoped_release release;
+    std::fflush(stderr);
+    const int saved = ::dup(2);
+    ::dup2(log_fd, 2);
+    try {
+      code = jamflow::analysis::analyze_main(args);
+    } catch (...) {
+      code = 1;
+    }
+    std::fflush(stderr);
+    ::dup2(saved, 2);
+    ::close(saved);
+  }
+  ::close(log_fd);
+  std::string log;
+  {
+    std::ifstream in(log_name);
+    std::stringstream s;
+    s << in.rdbuf();
+    log = s.str();
+  }
+  ::unlink(log_name);
+  std::string error;
+  std::istringstream lines(log);
+  for (std::string line; std::getline(lines, line);) {
+    const std::string tag = "jamflow analyze: error: ";
+    if (line.rfind(tag, 0) == 0 && error.empty())
+      error = line.substr(tag.size());
+    else if (!line.empty())
+      py::print(line, py::arg("file") = py::module_::import("sys").attr("stderr"));
+  }
+  py::object result = py::none();
+  if (code == 0 || code == 1) {
+    std::ifstream in(json_path);
+    if (in) {
+      std::stringstream s;
+      s << in.rdbuf();
+      result = py::module_::import("json").attr("loads")(s.str());
+    }
+  }
+  if (!scratch.empty()) {
+    std::error_code ec;
+    fs::remove_all(scratch, ec);
+  }
+  if (code == 2)
+    throw ConfigError(error.empty() ? "jamflow analyze: bad input" : error);
+  if (code != 0 || result.is_none())
+    throw std::runtime_error(error.empty() ? "jamflow analyze failed" : error);
+  return result;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(jamflow, m) {
+  m.doc() =
+      "jamflow: overdamped shear simulations of soft spheres near jamming. Scenes, runs, "
+      "simulations under a Python protocol loop, sweeps and analyses; see the README's "
+      "\"Python\" section.";
+  m.attr("__version__") = JAMFLOW_VERSION;
+  m.attr("default_scene") = jamflow::kDefaultScene;
+
+  static py::exception<jamflow::ConfigError> config_error(m, "ConfigError", PyExc_ValueError);
+  static py::exception<jamflow::IoError> io_error(m, "IoError", PyExc_OSError);
+  static py::exception<jamflow::InputFileError> input_error(m, "InputFileError", io_error.ptr());
+  static py::exception<jamflow::IntegrationError> integration_error(m, "IntegrationError",
+                                                                    PyExc_RuntimeError);
+  // One line, as the command line prints it.
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p)
+        std::rethrow_exception(p);
+    } catch (const jamflow::ConfigError& e) {
+      config_error(one_line(e.what()).c_str());
+    } catch (const jamflow::InputFileError& e) {
+      input_error(one_line(e.what()).c_str());
+    } catch (const jamflow::IoError& e) {
+      io_error(one_line(e.what()).c_str());
+    } catch (const jamflow::IntegrationError& e) {
+      integration_error(one_line(e.what()).c_str());
+    }
+  });
+
+  py::class_<PyScene>(m, "Scene",
+                      "A scene: from a TOML file (path), TOML text, a dict of sections, or the "
+                      "default scene (no argument). Checked as `jamflow run` checks it; a bad "
+                      "key or value raises ConfigError with the command line's one-line message.")
+      .def(py::init([](py::object source) {
+             if (source.is_none())
+               return PyScene::from_text(jamflow::kDefaultScene, "the default scene");
+             return PyScene::from_any(source);
+           }),
+           py::arg("source") = py::none())
+      .def_static("from_text", &PyScene::from_text, py::arg("text"),
+                  py::arg("source") = "the scene string")
+      .def_static("from_file", &PyScene::from_file, py::arg("path"))
+      .def_static("from_dict", &PyScene::from_dict, py::arg("sections"))
+      .def("set", &PyScene::set, py::arg("key"), py::arg("value"),
+           "Sets 'section.key' to a value and checks the scene (ConfigError: unchanged).")
+      .def("update", &PyScene::update, py::arg("values"),
+           "Sets several 'section.key' values, checked together.")
+      .def("get", &PyScene::get, py::arg("key"))
+      .def("__getitem__", &PyScene::get)
+      .def("to_dict", &PyScene::to_dict)
+      .def("copy", [](const PyScene& s) { return PyScene(s); })
+      .def_property_readonly("text", &PyScene::text)
+      .def("__str__", &PyScene::text)
+      .def("__repr__",
+           [](const PyScene& s) { return "jamflow.Scene(" + text_of(py::str(s.text())) + ")"; });
+
+  py::class_<RunResult>(m, "RunResult", "What jamflow.run returns.")
+      .def_readonly("summary", &RunResult::summary,
+                    "the /summary attributes: values, errors, verdicts, counters")
+      .def_readonly("timeseries", &RunResult::timeseries, "numpy arrays per observable")
+      .def_readonly("final", &RunResult::final_,
+                    "final configuration: positions (N x 3), diameters, species, cell, strain")
+      .def_readonly("warnings", &RunResult::warnings)
+      .def_readonly("replicas", &RunResult::replicas,
+                    "with several replicas: one RunResult per replica (else empty)")
+      .def_readonly("file", &RunResult::file, "the HDF5 file written, or None")
+      .def_readonly("status", &RunResult::status)
+      .def_readonly("scene", &RunResult::scene, "the scene as run (TOML)")
+      .def_readonly("seed", &RunResult::seed)
+      .def("__repr__", [](const RunResult& r) {
+        return "<jamflow.RunResult " + r.status + ", " +
+               std::to_string(py::len(r.timeseries["time"])) + " samples>";
+      });
+
+  m.def("run", &run, py::arg("scene"), py::arg("out") = py::none(), py::kw_only(),
+        py::arg("force") = false, py::arg("progress") = false,
+        "Runs a scene as `jamflow run` does. With out, writes the same HDF5 and XYZ files (an "
+        "existing output needs force=True); without, writes nothing. Ctrl-C stops the run "
+        "(its checkpoint OUT.h5.part continues with `jamflow run --resume`).");
+
+  py::class_<PySimulation>(m, "Simulation",
+                           "A scene's system under a Python protocol loop: advance, look, change "
+                           "the shear rate, advance again.")
+      .def(py::init<py::handle, py::object>(), py::arg("scene"), py::arg("seed") = py::none())
+      .def("advance", &PySimulation::advance, py::arg("duration"),
+           "Advances by `duration` (tau_0). Ctrl-C stops at the end of a step.")
+      .def("advance_to", &PySimulation::advance_to, py::arg("time"))
+      .def_property_readonly("time", [](const PySimulation& s) { return s.sim().time(); })
+      .def_property_readonly("observables", &PySimulation::observables,
+                             "time, strain, volume, phi, pressure, sigma_xy, energy, "
+                             "dissipation of the current configuration")
+      .def_property_readonly("positions", &PySimulation::positions,
+                             "N x 3 copy, id order, wrapped into the cell")
+      .def_property_readonly("forces", &PySimulation::forces, "N x 3 copy, id order")
+      .def_property_readonly("configuration", &PySimulation::configuration)
+      .def_property_readonly("statistics", &PySimulation::statistics)
+      .def_property_readonly("n",
+                             [](const PySimulation& s) { return s.sim().model().state().size(); })
+      .def_property_readonly("seed", [](const PySimulation& s) { return s.sim().seed(); })
+      .def_property(
+          "shear_rate", [](const PySimulation& s) { return s.sim().shear_rate(); },
+          [](PySimulation& s, double rate) { s.sim().set_shear_rate(rate); });
+
+  m.def("sweep", &sweep, py::arg("path"), py::arg("out") = py::none(), py::kw_only(),
+        py::arg("jobs") = 0, py::arg("progress") = false,
+        "Runs a sweep file as `jamflow sweep` does (finished points are kept and not rerun) "
+        "and returns its collected table: {column: numpy array or list of str}.");
+  m.def("sweep_points", &sweep_points, py::arg("path"),
+        "The points of a sweep file (checked), without running them.");
+  m.def("analyze", &analyze, py::arg("kind"), py::arg("data"), py::arg("out") = py::none(),
+        py::kw_only(), py::arg("plots") = false,
+        "`jamflow analyze KIND DATA...`: kind is 'hard-sphere', 'soft' or 'olsson-teitel'; "
+        "options as keywords (envelope_z=2, bootstrap=50). Returns the JSON result.");
+  // One function per analysis, as the command line has one subcommand per analysis.
+  for (const char* kind : {"hard-sphere", "soft", "olsson-teitel"}) {
+    std::string name = std::string("analyze_") + kind;
+    for (char& c : name)
+      if (c == '-')
+        c = '_';
+    const std::string doc = std::string("`jamflow analyze ") + kind +
+                            " DATA...`: options as keywords; returns the JSON result.";
+    m.def(
+        name.c_str(),
+        [kind = std::string(kind)](py::object data, py::object out, bool plots,
+                                   py::kwargs options) {
+          return analyze(kind, std::move(data), std::move(out), plots, std::move(options));
+        },
+        py::arg("data"), py::arg("out") = py::none(), py::kw_only(), py::arg("plots") = false,
+        doc.c_str());
+  }
+}

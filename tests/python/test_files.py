@@ -1,0 +1,154 @@
+"""jamflow's files in third-party readers (Debian's python3-ase and python3-mdanalysis): the
+extended XYZ and H5MD files a run writes open as they are, with the run's positions and cell;
+an interrupted and resumed run writes the same H5MD trajectory as an uninterrupted one."""
+import os
+import signal
+import subprocess
+import threading
+import time
+import warnings
+
+import h5py
+
+import numpy as np
+import pytest
+
+import jamflow
+
+SCENE = {
+    "system": {"N": 40, "phi": 0.6, "seed": 2},
+    "ensemble": {"kind": "constant_volume"},
+    "shear": {"rate": 1e-2},
+    "integrator": {"kind": "euler", "dt": 0.1},
+    "run": {"t_eq": 0.0, "t_av": 20.0, "sample_every": 1.0, "blocks": 4},
+    "output": {"trajectory_every": 5.0, "trajectory_format": "both"},
+}
+
+
+@pytest.fixture(scope="module")
+def run_files(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("files")
+    result = jamflow.run(SCENE, out=folder / "r.h5")
+    return folder, result
+
+
+def test_ase_reads_the_final_configuration_and_the_trajectory(run_files):
+    ase_io = pytest.importorskip("ase.io")
+    folder, result = run_files
+    atoms = ase_io.read(folder / "r.final.xyz")
+    assert len(atoms) == 40
+    assert set(atoms.get_chemical_symbols()) <= {"H", "He"}
+    small = np.array(atoms.get_chemical_symbols()) == "H"
+    assert np.array_equal(small, result.final["species"] == 0)
+    assert np.allclose(atoms.get_positions(), result.final["positions"], rtol=0, atol=1e-12)
+    assert np.allclose(np.asarray(atoms.get_cell()), result.final["cell"], rtol=0, atol=1e-12)
+    assert np.allclose(atoms.arrays["radius"], result.final["diameters"] / 2)
+    assert all(atoms.get_pbc())
+    frames = ase_io.read(folder / "r.traj.xyz", index=":")
+    assert len(frames) == 5  # t = 0, 5, 10, 15, 20
+    assert np.allclose(frames[-1].get_positions(), result.final["positions"], atol=1e-12)
+
+
+def test_mdanalysis_reads_the_trajectory(run_files):
+    mda = pytest.importorskip("MDAnalysis")
+    folder, result = run_files
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        u = mda.Universe(str(folder / "r.traj.xyz"), format="XYZ")
+    assert len(u.atoms) == 40
+    assert len(u.trajectory) == 5
+    assert set(u.atoms.names) <= {"H", "He"}
+    u.trajectory[-1]
+    assert np.allclose(u.atoms.positions, result.final["positions"], atol=1e-4)
+
+
+def test_h5md_layout(run_files):
+    folder, result = run_files
+    with h5py.File(folder / "r.traj.h5md") as f:
+        assert list(f["h5md"].attrs["version"]) == [1, 1]
+        assert "name" in f["h5md/author"].attrs and "name" in f["h5md/creator"].attrs
+        box = f["particles/all/box"]
+        assert box.attrs["dimension"] == 3
+        assert [b.decode() if isinstance(b, bytes) else b for b in box.attrs["boundary"]] == \
+            ["periodic"] * 3
+        position = f["particles/all/position"]
+        assert position["value"].shape == (5, 40, 3)
+        assert list(position["step"][()]) == [0, 5, 10, 15, 20]
+        assert list(position["time"][()]) == [0.0, 5.0, 10.0, 15.0, 20.0]
+        assert np.array_equal(position["value"][-1], result.final["positions"])
+        assert np.array_equal(box["edges/value"][-1], result.final["cell"])
+        assert np.array_equal(f["particles/all/species"][()], result.final["species"])
+        assert np.array_equal(f["particles/all/diameter"][()], result.final["diameters"])
+        assert f["observables/strain/value"][-1] == result.final["strain"]
+    # The XYZ trajectory holds the same frames.
+    ase_io = pytest.importorskip("ase.io")
+    frames = ase_io.read(folder / "r.traj.xyz", index=":")
+    with h5py.File(folder / "r.traj.h5md") as f:
+        for k, atoms in enumerate(frames):
+            assert np.allclose(atoms.get_positions(),
+                               f["particles/all/position/value"][k], rtol=0, atol=1e-12)
+
+
+def test_mdanalysis_reads_the_h5md_trajectory(run_files):
+    mda = pytest.importorskip("MDAnalysis")
+    folder, result = run_files
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        u = mda.Universe.empty(40, trajectory=True)
+        u.load_new(str(folder / "r.traj.h5md"), format="H5MD", convert_units=False)
+    assert len(u.trajectory) == 5
+    u.trajectory[-1]
+    assert u.trajectory.ts.time == 20.0
+    assert np.allclose(u.atoms.positions, result.final["positions"], atol=1e-4)
+    # MDAnalysis box: lengths and angles of the sheared cell.
+    cell = result.final["cell"]
+    lengths = np.linalg.norm(cell, axis=1)
+    assert np.allclose(u.trajectory.ts.dimensions[:3], lengths, rtol=1e-5)
+
+
+def test_a_resumed_run_continues_the_h5md_trajectory(tmp_path):
+    scene = jamflow.Scene(SCENE)
+    scene.update({"system.N": 1000, "run.t_av": 4000.0, "output.trajectory_every": 100.0,
+                  "output.trajectory_format": "h5md"})
+    whole = jamflow.run(scene, out=tmp_path / "whole.h5")
+
+    def interrupt():  # once the run has started (its first checkpoint), and a little later
+        while not (tmp_path / "cut.h5.part").exists():
+            time.sleep(0.01)
+        time.sleep(0.2)
+        os.kill(os.getpid(), signal.SIGINT)
+
+    timer = threading.Thread(target=interrupt)
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        jamflow.run(scene, out=tmp_path / "cut.h5")
+    timer.join()
+    assert (tmp_path / "cut.traj.h5md.part").exists()
+    bin_ = os.environ.get("JAMFLOW_BIN", "jamflow")
+    out = subprocess.run([bin_, "run", "--resume", str(tmp_path / "cut.h5.part"), "-q"],
+                         capture_output=True, text=True, cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    with h5py.File(tmp_path / "whole.traj.h5md") as a, h5py.File(tmp_path / "cut.traj.h5md") as b:
+        for name in ("particles/all/position", "particles/all/box/edges", "observables/strain"):
+            for part in ("step", "time", "value"):
+                x, y = a[name][part][()], b[name][part][()]
+                assert x.shape == y.shape and x.tobytes() == y.tobytes(), name + "/" + part
+    assert whole.timeseries["time"][-1] == 4000.0
+
+
+def test_an_extended_run_continues_its_trajectories(tmp_path):
+    longer = jamflow.Scene(SCENE)
+    longer.set("run.t_av", 40.0)
+    jamflow.run(longer, out=tmp_path / "long.h5")
+    jamflow.run(SCENE, out=tmp_path / "ext.h5")
+    bin_ = os.environ.get("JAMFLOW_BIN", "jamflow")
+    out = subprocess.run([bin_, "run", "--extend", str(tmp_path / "ext.h5"), "--set",
+                          "run.t_av=40", "-q"], capture_output=True, text=True, cwd=tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert (tmp_path / "ext.traj.xyz").read_text() == (tmp_path / "long.traj.xyz").read_text()
+    with h5py.File(tmp_path / "long.traj.h5md") as a, h5py.File(tmp_path / "ext.traj.h5md") as b:
+        assert b["particles/all/position/value"].shape[0] == 9  # t = 0, 5, ..., 40
+        for name in ("particles/all/position", "particles/all/box/edges", "observables/strain"):
+            for part in ("step", "time", "value"):
+                x, y = a[name][part][()], b[name][part][()]
+                assert x.shape == y.shape and x.tobytes() == y.tobytes(), name + "/" + part

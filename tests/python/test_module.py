@@ -1,0 +1,317 @@
+"""The Python module `jamflow`: scenes, errors as exceptions, runs against the command line's
+HDF5 output bit for bit, simulations under a Python loop, interruption, sweeps and analyses.
+
+Run by ctest (Python.Module) with PYTHONPATH set to the build folder and JAMFLOW_BIN naming the
+command line binary.
+"""
+import os
+import signal
+import subprocess
+import threading
+
+import h5py
+import numpy as np
+import pytest
+
+import jamflow
+
+JAMFLOW_BIN = os.environ.get("JAMFLOW_BIN", "jamflow")
+
+SMALL = {
+    "system": {"N": 64, "phi": 0.62, "seed": 3},
+    "ensemble": {"kind": "constant_volume"},
+    "shear": {"rate": 1e-2},
+    "integrator": {"kind": "euler", "dt": 0.1},
+    "run": {"t_eq": 10.0, "t_av": 40.0, "sample_every": 1.0, "blocks": 4},
+}
+
+SMALL_TEXT = """
+[system]
+N = 64
+phi = 0.62
+seed = 3
+[ensemble]
+kind = "constant_volume"
+[shear]
+rate = 1e-2
+[integrator]
+kind = "euler"
+dt = 0.1
+[run]
+t_eq = 10.0
+t_av = 40.0
+sample_every = 1.0
+blocks = 4
+"""
+
+
+def same_bits(a, b):
+    a, b = np.asarray(a), np.asarray(b)
+    return a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def cli(*args, cwd=None):
+    return subprocess.run([JAMFLOW_BIN, *args], capture_output=True, text=True, cwd=cwd)
+
+
+# ---- scenes ---------------------------------------------------------------------------------
+
+
+def test_scene_from_file_text_dict_and_default(tmp_path):
+    path = tmp_path / "small.toml"
+    path.write_text(SMALL_TEXT)
+    from_file = jamflow.Scene(path)
+    from_str_path = jamflow.Scene(str(path))
+    from_text = jamflow.Scene(SMALL_TEXT)
+    from_dict = jamflow.Scene(SMALL)
+    assert from_file.text == from_str_path.text == from_text.text == from_dict.text
+    assert from_dict.get("shear.rate") == 1e-2
+    assert from_dict["system.N"] == 64
+    assert from_dict.to_dict()["run"]["blocks"] == 4
+    default = jamflow.Scene()
+    assert default.get("system.N") == 1000
+    assert "[system]" in str(default)
+
+
+def test_scene_set_and_update():
+    scene = jamflow.Scene(SMALL)
+    scene.set("shear.rate", 1e-4)
+    assert scene.get("shear.rate") == 1e-4
+    scene.set("system.N", np.int64(100))  # numpy scalars are numbers
+    assert scene.get("system.N") == 100
+    # A kind that needs another key: both at once.
+    scene.update({"ensemble.kind": "constant_pressure", "ensemble.pressure": 1e-3})
+    assert scene.get("ensemble.pressure") == 1e-3
+    with pytest.raises(jamflow.ConfigError):
+        scene.set("ensemble.kind", "constant_volume")  # the pressure would be an unknown key
+    assert scene.get("ensemble.kind") == "constant_pressure"  # unchanged
+
+
+def test_errors_are_the_command_lines_one_line_messages(tmp_path):
+    bad = dict(SMALL, system={"N": 64, "phi": 1.2})
+    with pytest.raises(jamflow.ConfigError) as err:
+        jamflow.Scene(bad)
+    message = str(err.value)
+    assert "\n" not in message
+    assert "[system] phi" in message and "1.2" in message
+    # The command line says the same about the same scene.
+    path = tmp_path / "bad.toml"
+    path.write_text(SMALL_TEXT.replace("phi = 0.62", "phi = 1.2"))
+    out = cli("run", str(path), "-o", str(tmp_path / "x.h5"))
+    assert out.returncode == 2
+    assert out.stderr.strip() == "jamflow: error: " + message
+
+    scene = jamflow.Scene(SMALL)
+    with pytest.raises(ValueError, match=r"\[shear\] rate"):
+        scene.set("shear.rate", -1.0)
+    assert scene.get("shear.rate") == 1e-2
+    with pytest.raises(jamflow.ConfigError, match="unknown|allowed"):
+        scene.set("shear.speed", 1.0)
+    with pytest.raises(jamflow.ConfigError, match="not a scene value"):
+        scene.set("shear.rate", object())
+    with pytest.raises(jamflow.ConfigError, match=r"\[output\] trajectory_format"):
+        scene.set("output.trajectory_format", "pdb")
+    scene.set("output.trajectory_every", 5.0)
+    with pytest.raises(jamflow.ConfigError, match="needs an output file"):
+        jamflow.run(scene)  # a trajectory, and nowhere to write it
+    with pytest.raises(jamflow.InputFileError):
+        jamflow.Scene(tmp_path / "missing.toml")
+    assert issubclass(jamflow.InputFileError, OSError)
+
+
+# ---- runs -----------------------------------------------------------------------------------
+
+
+def test_run_equals_the_command_line_bit_for_bit(tmp_path):
+    path = tmp_path / "small.toml"
+    path.write_text(SMALL_TEXT)
+    assert cli("run", str(path), "-o", str(tmp_path / "cli.h5"), "-q").returncode == 0
+    result = jamflow.run(jamflow.Scene(path), out=tmp_path / "py.h5")
+    assert result.file == str(tmp_path / "py.h5")
+    assert result.status == "complete"
+    in_memory = jamflow.run(SMALL)  # writes nothing
+    assert in_memory.file is None
+    with h5py.File(tmp_path / "cli.h5") as f, h5py.File(tmp_path / "py.h5") as g:
+        assert g.attrs["scene"] == f.attrs["scene"].replace("cli.h5", "py.h5")
+        for name, values in result.timeseries.items():
+            assert same_bits(values, f["timeseries"][name][()]), name
+            assert same_bits(in_memory.timeseries[name], values), name
+        for name in ("positions", "diameters", "species", "cell"):
+            assert same_bits(result.final[name], f["final"][name][()]), name
+        assert result.final["strain"] == f["final"].attrs["strain"]
+        for name, value in f["summary"].attrs.items():
+            if name in ("wall_seconds",) or name not in result.summary:
+                continue
+            mine = result.summary[name]
+            if isinstance(mine, str):
+                assert mine == (value.decode() if isinstance(value, bytes) else value), name
+            else:
+                assert same_bits(np.float64(mine), np.float64(value)), name
+        for name in ("eta", "eta_err", "sigma_xy", "pressure", "phi", "verdict_steady"):
+            assert name in result.summary
+    # The two files are the same bits, dates and wall times aside.
+    compare = os.environ.get("JAMFLOW_COMPARE")
+    if compare:
+        # The stored scenes differ in [output] file only.
+        out = subprocess.run(["/usr/bin/python3", compare, "--ignore", "scene",
+                              str(tmp_path / "cli.h5"), str(tmp_path / "py.h5")],
+                             capture_output=True, text=True)
+        assert out.returncode == 0, out.stdout + out.stderr
+    # An existing output is refused, as on the command line.
+    with pytest.raises(jamflow.ConfigError, match="exists"):
+        jamflow.run(SMALL, out=tmp_path / "py.h5")
+    jamflow.run(SMALL, out=tmp_path / "py.h5", force=True)
+
+
+def test_run_with_replicas():
+    scene = jamflow.Scene(SMALL)
+    scene.set("run.replicas", 2)
+    result = jamflow.run(scene)
+    assert len(result.replicas) == 2
+    assert result.replicas[0].seed == 3 and result.replicas[1].seed == 4
+    assert result.summary["replicas"] == 2
+    assert "eta_replica_err" in result.summary
+    assert same_bits(result.timeseries["sigma_xy"], result.replicas[0].timeseries["sigma_xy"])
+
+
+# ---- simulations ----------------------------------------------------------------------------
+
+
+def test_simulation_follows_the_run_bit_for_bit():
+    result = jamflow.run(SMALL)
+    sim = jamflow.Simulation(SMALL)
+    assert sim.n == 64 and sim.time == 0.0
+    sigma = [sim.observables["sigma_xy"]]
+    for k in range(1, 51):
+        sim.advance(1.0)
+        sigma.append(sim.observables["sigma_xy"])
+    assert sim.time == 50.0
+    assert same_bits(np.array(sigma), result.timeseries["sigma_xy"])
+    assert same_bits(sim.positions, result.final["positions"])
+    assert sim.observables["strain"] == result.final["strain"]
+
+
+def test_simulation_arrays_and_a_shear_rate_ramp():
+    sim = jamflow.Simulation(SMALL, seed=5)
+    positions, forces = sim.positions, sim.forces
+    assert positions.shape == (64, 3) and forces.shape == (64, 3)
+    # Pair forces: no net force on the system.
+    assert np.abs(forces.sum(axis=0)).max() < 1e-12 * max(1.0, np.abs(forces).max() * 64)
+    positions[:] = 0.0  # a copy: the simulation is untouched
+    assert np.abs(sim.positions).max() > 0.0
+    strains = []
+    for rate in (1e-2, 3e-3, 1e-3):
+        sim.shear_rate = rate
+        before = sim.observables["strain"]
+        sim.advance(5.0)
+        strains.append(sim.observables["strain"] - before)
+    assert np.allclose(strains, [5e-2, 1.5e-2, 5e-3], rtol=1e-9)
+    with pytest.raises(jamflow.ConfigError, match=r"\[shear\] rate"):
+        sim.shear_rate = -1.0
+    with pytest.raises(jamflow.ConfigError):
+        sim.advance_to(1.0)  # in the past
+    assert sim.statistics["force_evaluations"] > 0
+
+
+# ---- interruption ---------------------------------------------------------------------------
+
+
+def long_scene():
+    scene = jamflow.Scene(SMALL)
+    scene.update({"system.N": 500, "run.t_eq": 0.0, "run.t_av": 1e6, "run.sample_every": 1.0})
+    return scene
+
+
+def interrupt_soon(seconds=0.5):
+    timer = threading.Timer(seconds, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    return timer
+
+
+def test_ctrl_c_stops_a_run_and_keeps_its_checkpoint(tmp_path):
+    out = tmp_path / "long.h5"
+    timer = interrupt_soon()
+    with pytest.raises(KeyboardInterrupt):
+        jamflow.run(long_scene(), out=out)
+    timer.join()
+    assert not out.exists()
+    with h5py.File(str(out) + ".part") as f:
+        status = f.attrs["status"]
+        status = status.decode() if isinstance(status, bytes) else status
+        assert status.startswith("interrupted at t =")
+        assert len(f["timeseries"]["time"]) >= 1
+
+
+def test_ctrl_c_stops_a_simulation_which_then_goes_on():
+    sim = jamflow.Simulation(long_scene())
+    timer = interrupt_soon()
+    with pytest.raises(KeyboardInterrupt):
+        sim.advance(1e6)
+    timer.join()
+    stopped = sim.time
+    assert 0.0 < stopped < 1e6
+    sim.advance_to(stopped + 1.0)
+    assert sim.time == stopped + 1.0
+
+
+# ---- sweeps and analyses --------------------------------------------------------------------
+
+SWEEP = """
+[sweep]
+replicas = 1
+[sweep.grid]
+"shear.rate" = [1e-1, 1e-2]
+[scene.system]
+N = 64
+phi = 0.62
+[scene.ensemble]
+kind = "constant_volume"
+[scene.shear]
+rate = 1e-2
+[scene.integrator]
+kind = "euler"
+dt = 0.1
+[scene.run]
+t_eq = 5.0
+t_av = 20.0
+sample_every = 1.0
+blocks = 4
+"""
+
+
+def test_sweep_returns_the_collected_table(tmp_path):
+    path = tmp_path / "two.toml"
+    path.write_text(SWEEP)
+    points = jamflow.sweep_points(path)
+    assert [p["values"]["shear.rate"] for p in points] == [1e-1, 1e-2]
+    table = jamflow.sweep(path, out=tmp_path / "two.sweep", jobs=2)
+    assert len(table["point"]) == 2
+    assert isinstance(table["eta"], np.ndarray) and np.all(np.isfinite(table["eta"]))
+    assert same_bits(table["gdot"], np.array([1e-1, 1e-2]))
+    # Each point is the run of its scene.
+    one = jamflow.run(points[1]["scene"])
+    assert np.isclose(table["eta"][1], one.summary["eta"], rtol=1e-12)
+    # A bad point is the command line's one-line error.
+    path.write_text(SWEEP.replace("phi = 0.62", "phi = 2.0"))
+    with pytest.raises(jamflow.ConfigError, match=r"phi"):
+        jamflow.sweep(path, out=tmp_path / "bad.sweep")
+
+
+def test_analyze_returns_plain_objects_and_raises_one_line_errors(tmp_path):
+    # Pure hard-sphere data at two pressures: phi = phi_J - C J^b, mu = mu_J + C J^b.
+    rows = ["N,P,gdot,phi,phi_err,mu,mu_err"]
+    for p in (1e-4, 1e-5):
+        for j in np.logspace(-5, -1, 9):
+            phi, mu = 0.645 - 0.4 * j**0.38, 0.1 + 1.1 * j**0.36
+            rows.append(f"1000,{p!r},{j * p!r},{phi!r},{1e-4!r},{mu!r},{1e-3!r}")
+    data = tmp_path / "granular.csv"
+    data.write_text("\n".join(rows) + "\n")
+    result = jamflow.analyze("hard-sphere", data)
+    assert isinstance(result, dict)
+    assert jamflow.analyze_hard_sphere([data], envelope_z=2) == \
+        jamflow.analyze("hard-sphere", data, envelope_z=2)
+    text = repr(result)
+    assert "phi_J" in text or "phi_j" in text
+    with pytest.raises(jamflow.ConfigError) as err:
+        jamflow.analyze("hard-sphere", tmp_path / "missing.csv")
+    assert "\n" not in str(err.value) and "missing.csv" in str(err.value)
