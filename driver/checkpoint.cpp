@@ -283,6 +283,17 @@ RunFile read_run_file(const std::string& path, bool everything) {
       res.status = r.has_attr(g, "status") ? r.attr_string(g, "status") : f.status;
       if (r.has_attr(g, "wall_seconds"))
         res.wall_seconds = r.attr_double(g, "wall_seconds");
+      if (r.exists(g)) {
+        for (const auto& name : r.attr_names(g)) {
+          if (name.rfind("integrator_", 0) != 0)
+            continue;
+          try {
+            res.integrator_stats.emplace_back(name.substr(11), r.attr_double(g, name));
+          } catch (const std::exception&) {
+            // the integrator's kind is text
+          }
+        }
+      }
     }
   }
   return f;

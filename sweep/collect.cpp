@@ -96,6 +96,7 @@ Collected collect(const Plan& plan, const std::string& path) {
     auto& ts = of_point[p.index];
     std::sort(ts.begin(), ts.end(), [](auto a, auto b) { return a->replica < b->replica; });
     std::vector<Summary> sums;
+    double wall = 0.0, evaluations = 0.0;  // the cost, summed over the replicas
     std::string why;
     for (const Task* t : ts) {
       std::string detail;
@@ -109,21 +110,19 @@ Collected collect(const Plan& plan, const std::string& path) {
           why.append(" (").append(detail).append(")");
         break;
       }
-      sums.push_back(read_run_file(plan.task_file(*t), false).replicas.front().summary);
+      const ReplicaResult res = read_run_file(plan.task_file(*t), false).replicas.front();
+      sums.push_back(res.summary);
+      wall += res.wall_seconds;
+      for (const auto& [name, value] : res.integrator_stats)
+        evaluations += name == "force_evaluations" ? value : 0.0;
     }
     if (!why.empty()) {
       out.left_out.push_back(p.name + ": " + why);
       continue;
     }
     Row row{&p, parse_run_spec(plan.task_scene(*ts.front())), {}};
-    for (const Summary& s : sums) {
-      const auto value = [&](const char* k) {
-        const auto it = s.values.find(k);
-        return it == s.values.end() ? 0.0 : it->second;
-      };
-      row.wall_seconds += value("wall_seconds");
-      row.force_evaluations += value("integrator_force_evaluations");
-    }
+    row.wall_seconds = wall;
+    row.force_evaluations = evaluations;
     row.sum = sums.size() > 1 ? combine_replicas(sums) : sums.front();
     all_cp = all_cp && row.spec.ensemble->imposed_pressure().has_value();
     rows.push_back(std::move(row));
