@@ -401,30 +401,39 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
   return md.str();
 }
 
+namespace {
+
+// One size's points for the plots: P, J, phi, mu with errors, and envelope statuses.
+void envelope_points_json(Json& js, const std::vector<EnvelopePoint>& points) {
+  std::vector<double> p, jj, phi, phi_err, mu, mu_err;
+  Json status = Json::array();
+  for (const auto& e : points) {
+    p.push_back(e.point.pressure);
+    jj.push_back(e.point.j);
+    phi.push_back(e.point.phi);
+    phi_err.push_back(e.point.phi_err);
+    mu.push_back(e.point.mu);
+    mu_err.push_back(e.point.mu_err);
+    status.push_back(to_string(e.status));
+  }
+  js["P"] = Json(p);
+  js["J"] = Json(jj);
+  js["phi"] = Json(phi);
+  js["phi_err"] = Json(phi_err);
+  js["mu"] = Json(mu);
+  js["mu_err"] = Json(mu_err);
+  js["status"] = status;
+}
+
+}  // namespace
+
 Json hard_sphere_plot_data(const HardSphereResult& r) {
   Json j = Json::object();
   Json sizes = Json::array();
   for (const auto& s : r.sizes) {
     Json js = Json::object();
     js["N"] = static_cast<std::int64_t>(s.n);
-    std::vector<double> p, jj, phi, phi_err, mu, mu_err;
-    Json status = Json::array();
-    for (const auto& e : s.points) {
-      p.push_back(e.point.pressure);
-      jj.push_back(e.point.j);
-      phi.push_back(e.point.phi);
-      phi_err.push_back(e.point.phi_err);
-      mu.push_back(e.point.mu);
-      mu_err.push_back(e.point.mu_err);
-      status.push_back(to_string(e.status));
-    }
-    js["P"] = Json(p);
-    js["J"] = Json(jj);
-    js["phi"] = Json(phi);
-    js["phi_err"] = Json(phi_err);
-    js["mu"] = Json(mu);
-    js["mu_err"] = Json(mu_err);
-    js["status"] = status;
+    envelope_points_json(js, s.points);
     Json params = Json::object();
     for (const auto& name : hard_sphere_parameters()) {
       Measured m = size_param(s, name);
@@ -439,24 +448,7 @@ Json hard_sphere_plot_data(const HardSphereResult& r) {
   for (const auto& u : r.unfitted) {
     Json js = Json::object();
     js["N"] = static_cast<std::int64_t>(u.n);
-    std::vector<double> p, jj, phi, phi_err, mu, mu_err;
-    Json status = Json::array();
-    for (const auto& e : u.points) {
-      p.push_back(e.point.pressure);
-      jj.push_back(e.point.j);
-      phi.push_back(e.point.phi);
-      phi_err.push_back(e.point.phi_err);
-      mu.push_back(e.point.mu);
-      mu_err.push_back(e.point.mu_err);
-      status.push_back(to_string(e.status));
-    }
-    js["P"] = Json(p);
-    js["J"] = Json(jj);
-    js["phi"] = Json(phi);
-    js["phi_err"] = Json(phi_err);
-    js["mu"] = Json(mu);
-    js["mu_err"] = Json(mu_err);
-    js["status"] = status;
+    envelope_points_json(js, u.points);
     unfitted.push_back(js);
   }
   j["unfitted"] = unfitted;
