@@ -40,6 +40,8 @@ StabilityPreset stability_preset(const std::string& name) {
     p.cvode_tols = {1e-4};
     p.lane_pressure = 1e-4;
     p.lane_gdot = 1e-4;
+    p.respa_sizes = {100, 250};
+    p.respa_size_pressures = {1e-3};
     p.budget_particle_steps = 1.25e8;  // about 5 s
     p.cvode_max_steps = 20000;
   } else if (name == "standard") {
@@ -58,7 +60,9 @@ StabilityPreset stability_preset(const std::string& name) {
     p.cvode_tols = {1e-3, 1e-4, 1e-5, 1e-6};
     p.lane_pressure = 1e-5;
     p.lane_gdot = 1e-6;
-    p.lane_strain_av = 0.3;
+    p.lane_strain_av = 1.0;  // the seed's lanes need strain: run to 1
+    p.respa_sizes = {100, 175, 250, 350, 500, 750, 1000};
+    p.respa_size_pressures = {1e-2, 1e-3, 1e-4};
     p.budget_particle_steps = 7.5e9;  // about 300 s
   } else if (name == "paper") {
     p.n = 1000;
@@ -77,6 +81,9 @@ StabilityPreset stability_preset(const std::string& name) {
     p.lane_pressure = 1e-5;
     p.lane_gdot = 1e-7;
     p.lane_strain_av = 1.0;
+    p.respa_sizes = {64, 100, 175, 250, 350, 500, 750, 1000, 2000};
+    p.respa_size_pressures = {1e-2, 1e-3, 1e-4, 1e-5};
+    p.respa_size_dts = {0.5, 0.7, 1.0, 1.2};
   } else {
     throw ConfigError("--preset " + name + "; allowed quick, standard, paper");
   }
@@ -146,6 +153,22 @@ std::vector<StabilityCase> stability_cases(const StabilityPreset& p) {
     c.lanes = true;
     c.strain_av = p.lane_strain_av;
     cases.push_back(c);
+  }
+  for (double pr : p.respa_size_pressures) {
+    for (std::int64_t n : p.respa_sizes) {
+      StabilityCase c;
+      c.point = base;
+      c.point.n = n;
+      c.point.pressure = pr;
+      c.point.phi = pr > 5e-3 ? 0.68 : 0.64;
+      c.point.gdot = p.respa_size_j * pr;
+      c.name = "RESPA N=" + std::to_string(n) + " P=" + short_num(pr);
+      c.why =
+          "RESPA, particles on the inner level, against N: the outer-level piston's rate "
+          "K / (V xi_V) grows as the box shrinks";
+      c.respa_size = true;
+      cases.push_back(c);
+    }
   }
   return cases;
 }
@@ -218,6 +241,116 @@ void summarize_case(CaseResult& cr) {
   }
 }
 
+// The RESPA-against-N scan: a table of verdicts (sizes down, pressure x step across) and, per
+// pressure and step, the size below which the runs oscillate or diverge.
+bool oscillates(const DiagnosedRun& r) {
+  return r.cls.verdict == Verdict::kOscillating || r.cls.verdict == Verdict::kDiverged;
+}
+bool holds(const DiagnosedRun& r) {  // ran to the end without oscillating
+  return r.cls.verdict == Verdict::kStable || r.cls.verdict == Verdict::kNotSteady ||
+         r.cls.verdict == Verdict::kCorrelated;
+}
+
+struct SizeThreshold {
+  double pressure = 0.0, dt = 0.0;
+  std::int64_t largest_failing = 0;   // 0: none failed
+  std::int64_t smallest_holding = 0;  // smallest N from which every larger size held (0: none)
+  bool complete = true;               // every size gave a verdict either way
+};
+
+std::vector<SizeThreshold> respa_size_thresholds(const std::vector<CaseResult>& results,
+                                                 const StabilityPreset& preset) {
+  std::vector<SizeThreshold> out;
+  for (double pr : preset.respa_size_pressures) {
+    for (std::size_t k = 0; k < preset.respa_size_dts.size(); ++k) {
+      SizeThreshold t;
+      t.pressure = pr;
+      t.dt = preset.respa_size_dts[k];
+      std::vector<std::pair<std::int64_t, const DiagnosedRun*>> runs;
+      for (const auto& cr : results)
+        if (cr.c.respa_size && cr.c.point.pressure == pr && k < cr.runs.size())
+          runs.emplace_back(cr.c.point.n, &cr.runs[k]);
+      std::sort(runs.begin(), runs.end(),
+                [](const auto& a, const auto& b) { return a.first < b.first; });
+      for (const auto& [n, r] : runs) {
+        if (oscillates(*r))
+          t.largest_failing = n;
+        else if (!holds(*r))
+          t.complete = false;
+      }
+      for (auto it = runs.rbegin(); it != runs.rend() && holds(*it->second); ++it)
+        t.smallest_holding = it->first;
+      out.push_back(t);
+    }
+  }
+  return out;
+}
+
+std::string threshold_text(const SizeThreshold& t, const StabilityPreset& preset) {
+  const std::int64_t largest =
+      *std::max_element(preset.respa_sizes.begin(), preset.respa_sizes.end());
+  std::string out;
+  if (t.largest_failing == 0)
+    out = "held at every size scanned";
+  else if (t.smallest_holding > 0)
+    out = "oscillating or diverged at N <= " + std::to_string(t.largest_failing) +
+          ", holds for N >= " + std::to_string(t.smallest_holding);
+  else if (t.largest_failing == largest)
+    out =
+        "oscillating or diverged even at the largest size scanned, N = " + std::to_string(largest);
+  else
+    out = "oscillating or diverged at N = " + std::to_string(t.largest_failing) +
+          "; the larger sizes gave no verdict";
+  if (!t.complete)
+    out += " (some sizes gave no verdict: incomplete, or not available)";
+  return out;
+}
+
+std::string respa_size_section(const std::vector<CaseResult>& results,
+                               const StabilityPreset& preset,
+                               const std::vector<SizeThreshold>& thresholds) {
+  if (preset.respa_sizes.empty())
+    return "";
+  std::vector<std::string> header = {"N"};
+  for (double pr : preset.respa_size_pressures)
+    for (double dt : preset.respa_size_dts)
+      header.push_back("P = " + short_num(pr) + ", dt = " + short_num(dt));
+  std::vector<std::vector<std::string>> rows;
+  for (std::int64_t n : preset.respa_sizes) {
+    std::vector<std::string> row = {std::to_string(n)};
+    for (double pr : preset.respa_size_pressures) {
+      const CaseResult* found = nullptr;
+      for (const auto& cr : results)
+        if (cr.c.respa_size && cr.c.point.n == n && cr.c.point.pressure == pr)
+          found = &cr;
+      for (std::size_t k = 0; k < preset.respa_size_dts.size(); ++k) {
+        if (!found || k >= found->runs.size()) {
+          row.push_back("—");
+          continue;
+        }
+        const DiagnosedRun& r = found->runs[k];
+        row.push_back(r.verdict_text() +
+                      (r.complete() ? " (c = " + num(r.window.force_correlation, 3) + ")" : ""));
+      }
+    }
+    rows.push_back(row);
+  }
+  std::string md =
+      "## RESPA with particle sub-steps against N\n\n"
+      "RESPA with the particles on the inner level (4 explicit-Euler sub-steps) and the piston "
+      "on the outer level, at J = " +
+      short_num(preset.respa_size_j) +
+      " (gdot = J P), each size prepared as the other cases. The piston's relaxation rate "
+      "K / (V xi_V) grows as the box volume V shrinks, so the outer step that the piston "
+      "tolerates shrinks with N. c is the force step correlation of the diagnostic window "
+      "(oscillating below 0.9).\n\n" +
+      markdown_table(header, rows) + "\n";
+  for (const auto& t : thresholds)
+    md += "- P = " + short_num(t.pressure) + ", dt = " + short_num(t.dt) + ": " +
+          threshold_text(t, preset) + ".\n";
+  return md + "\n";
+}
+
 }  // namespace
 
 int run_stability(const StudyOptions& options) {
@@ -266,16 +399,21 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
     cr.c = cases[ci];
     cr.prep = preps[ci];
     const StatePoint& pt = cr.c.point;
-    std::vector<double> dts = cr.c.lanes ? preset.lane_dts : preset.dts;
-    if (cr.c.stiff)
-      dts.insert(dts.begin(), preset.stiff_dts.begin(), preset.stiff_dts.end());
-    for (double dt : dts)
-      cr.settings.push_back(euler_setting(dt));
-    for (const auto& sp : preset.respa)
-      for (double dt : preset.respa_dts)
-        cr.settings.push_back(respa_setting(dt, sp.n_inner, sp.inner, sp.scheme));
-    for (double tol : preset.cvode_tols)
-      cr.settings.push_back(cvode_setting(tol, 0.0, preset.cvode_max_steps));
+    if (cr.c.respa_size) {
+      for (double dt : preset.respa_size_dts)
+        cr.settings.push_back(respa_setting(dt, 4, "particles", "euler"));
+    } else {
+      std::vector<double> dts = cr.c.lanes ? preset.lane_dts : preset.dts;
+      if (cr.c.stiff)
+        dts.insert(dts.begin(), preset.stiff_dts.begin(), preset.stiff_dts.end());
+      for (double dt : dts)
+        cr.settings.push_back(euler_setting(dt));
+      for (const auto& sp : preset.respa)
+        for (double dt : preset.respa_dts)
+          cr.settings.push_back(respa_setting(dt, sp.n_inner, sp.inner, sp.scheme));
+      for (double tol : preset.cvode_tols)
+        cr.settings.push_back(cvode_setting(tol, 0.0, preset.cvode_max_steps));
+    }
     const double strain_av = cr.c.strain_av > 0.0 ? cr.c.strain_av : preset.strain_av;
     const double t_eq = duration(preset.strain_eq, pt.gdot, preset.t_eq_min);
     const double t_av = duration(strain_av, pt.gdot, preset.t_av_min);
@@ -311,10 +449,22 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
     summarize_case(cr);
   }
 
+  const auto thresholds = respa_size_thresholds(results, preset);
+
   // 3. Output: HDF5 with everything, the report, the plots.
   const std::string h5 = options.out_dir + "/stability.h5";
   {
     H5Writer w(h5);
+    for (std::size_t t = 0; t < thresholds.size(); ++t) {
+      char g[64];
+      std::snprintf(g, sizeof g, "/respa_size_thresholds/t%02zu", t);
+      w.group(g);
+      w.attr(g, "pressure", thresholds[t].pressure);
+      w.attr(g, "dt", thresholds[t].dt);
+      w.attr(g, "largest_failing_N", thresholds[t].largest_failing);
+      w.attr(g, "smallest_holding_N", thresholds[t].smallest_holding);
+      w.attr(g, "every_size_has_a_verdict", static_cast<std::int64_t>(thresholds[t].complete));
+    }
     w.attr("/", "study", "stability");
     w.attr("/", "preset", preset.name);
     w.attr("/", "cases", static_cast<std::int64_t>(results.size()));
@@ -341,6 +491,7 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
       w.attr(grp, "first_unstable_dt", cr.first_unstable_dt);
       w.attr(grp, "first_unstable_verdict", cr.first_unstable_verdict);
       w.attr(grp, "lanes", static_cast<std::int64_t>(cr.any_lanes));
+      w.attr(grp, "respa_size_scan", static_cast<std::int64_t>(cr.c.respa_size));
       write_diagnosed(w, grp + "/prep", cr.prep, false);
       for (std::size_t k = 0; k < cr.runs.size(); ++k) {
         char rg[32];
@@ -374,6 +525,8 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
       "per core (the sweep engine); CPU s is its wall time.\n\n";
   std::vector<std::vector<std::string>> summary_rows;
   for (const auto& cr : results) {
+    if (cr.c.respa_size)
+      continue;
     summary_rows.push_back({cr.c.name, cr.c.point.describe(),
                             std::isfinite(cr.largest_stable_dt)
                                 ? short_num(cr.largest_stable_dt)
@@ -386,7 +539,8 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
   md += "## Summary (explicit Euler)\n\n";
   md += markdown_table({"case", "state point", "largest stable dt", "first unstable dt", "lanes"},
                        summary_rows);
-  md += "\n## Per case\n\n";
+  md += "\n" + respa_size_section(results, preset, thresholds);
+  md += "## Per case\n\n";
   for (const auto& cr : results) {
     md += "### " + cr.c.name + "\n\n" + cr.c.point.describe() + " — " + cr.c.why + ".  \n";
     md += "Preparation: " + cr.prep.verdict_text() + ", t = " +
@@ -404,7 +558,12 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
     md += excluded_section(all);
   }
   md += "## Conclusions\n\n";
+  for (const auto& t : thresholds)
+    md += "- **RESPA (particles inner) at dt = " + short_num(t.dt) +
+          ", P = " + short_num(t.pressure) + "**: " + threshold_text(t, preset) + ".\n";
   for (const auto& cr : results) {
+    if (cr.c.respa_size)
+      continue;
     md += "- **" + cr.c.name + "**: ";
     if (!cr.prep.complete()) {
       md += "preparation failed: " + cr.prep.verdict_text() + ".\n";

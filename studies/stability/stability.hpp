@@ -28,6 +28,13 @@ struct StabilityPreset {
   std::vector<double> respa_dts;
   std::vector<double> cvode_tols;
   double lane_pressure = 1e-4, lane_gdot = 1e-4, lane_strain_av = 0.0;
+  // RESPA with the particles on the inner level (4 Euler sub-steps) against N: at each size and
+  // pressure (J = respa_size_j), only the steps respa_size_dts. The piston stays on the outer
+  // level, and its rate K / (V xi_V) grows as the box shrinks.
+  std::vector<std::int64_t> respa_sizes;
+  std::vector<double> respa_size_pressures;
+  std::vector<double> respa_size_dts = {0.5, 1.0};
+  double respa_size_j = 1.0;
   // Particle-steps (N x force evaluations) allowed per run (0: none); over it: "incomplete".
   // 1.25e8 is about 5 s of one core (40 ns each).
   double budget_particle_steps = 0.0;
@@ -40,8 +47,9 @@ struct StabilityCase {
   std::string name;
   std::string why;
   StatePoint point;
-  bool stiff = false;  // alpha_r < 2: add the small steps
-  bool lanes = false;  // N = 100 near jamming
+  bool stiff = false;       // alpha_r < 2: add the small steps
+  bool lanes = false;       // N = 100 near jamming
+  bool respa_size = false;  // the RESPA-against-N scan: only its RESPA steps
   double strain_av = 0.0;
 };
 
