@@ -429,7 +429,7 @@ Scene request_scene(const RunRequest& r) {
     scene.set_section("integrator", r.scene.integrator->table());
   toml::table system = scene.table("system") ? *scene.table("system") : toml::table{};
   system.insert_or_assign("seed", static_cast<std::int64_t>(r.seed));
-  if (!r.init.empty()) {
+  if (!r.init.empty() && r.init != kCountedStart) {
     system.erase("N");  // both come from the start state
     system.erase("phi");
     system.insert_or_assign("init", std::filesystem::absolute(r.init).string());
@@ -613,6 +613,15 @@ std::optional<int> run_stage(const std::string& study, const std::string& stage,
   if (const auto status =
           run_sweep_study(study, stage_sweep(scenes, names, study, stage), options, sw, where))
     return status;
+  if (sw.counted_only) {  // --dry-run: stand-ins, so that the next stage can be counted
+    for (std::size_t k = 0; k < requests.size(); ++k) {
+      if (point_of[k] == SIZE_MAX)
+        continue;
+      out[k].result.status = "complete";
+      out[k].final_xyz = kCountedStart;
+    }
+    return std::nullopt;
+  }
   for (std::size_t k = 0; k < requests.size(); ++k) {
     if (point_of[k] == SIZE_MAX)
       continue;

@@ -157,12 +157,17 @@ struct StudyScene {
                const std::string& source = "<study scene>") const;
 };
 
+// The final_xyz of a run that --dry-run counted but did not run.
+inline constexpr const char* kCountedStart = "<counted, not run>";
+
 struct RunRequest {
   std::string label;                   // also its point's name in the stage's sweep
   StudyScene scene;                    // TOML text (+ typed integrator settings)
   std::vector<std::string> overrides;  // "section.key=value"
   std::uint64_t seed = 1;
-  std::string init;    // XYZ start (an earlier stage's DiagnosedRun::final_xyz); empty: random
+  // XYZ start (an earlier stage's DiagnosedRun::final_xyz); empty: random. kCountedStart (the
+  // final state of a stage that --dry-run only counted): the scene's own N and phi stand in.
+  std::string init;
   bool window = true;  // run the diagnostic window after the run
   WindowOptions window_options;
   std::int64_t budget = 0;  // [run] max_force_evaluations of the run (0: none)

@@ -46,8 +46,8 @@ int study_main(const std::vector<std::string>& args) {
                  "cores)")
       ->check(CLI::Range(1, 4096));
   app.add_flag("--dry-run", opt.dry_run,
-               "print the point count and the expected CPU-hours (of a study in stages: its "
-               "first unfinished stage), and stop");
+               "print the point count and the expected CPU-hours (of a study in stages: every "
+               "unfinished stage, a later one from its scenes), and stop");
   app.add_flag("--slurm", opt.slurm,
                "write the study's points as a Slurm job array (OUT/runs/sweep.sbatch, or "
                "OUT/STAGE/runs/sweep.sbatch for the first unfinished stage of a study in "

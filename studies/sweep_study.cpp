@@ -40,8 +40,10 @@ std::optional<int> run_sweep_study(const std::string& study, const std::string& 
   const std::string what = stage.name.empty() ? study : study + " (stage " + stage.name + ")";
   const std::string next =
       stage.last ? std::string()
-                 : "; the study's next stage is written when this one has finished (the same "
-                   "command again)";
+      : options.dry_run
+          ? "; the study's next stage is counted from its scenes (stand-in start states)"
+          : "; the study's next stage is written when this one has finished (the same "
+            "command again)";
   // A finished stage of a study in stages is read back: the next stage is the one to count,
   // write or run.
   const bool finished_stage = !stage.name.empty() && all_done(out.plan);
@@ -61,7 +63,10 @@ std::optional<int> run_sweep_study(const std::string& study, const std::string& 
         what.c_str(), options.preset.c_str(), out.plan.points.size(),
         static_cast<long long>(out.plan.replicas), cost.tasks, cost.particle_steps, cost.cpu_hours,
         out.plan.out_dir.c_str(), next.c_str());
-    return 0;
+    if (stage.last)
+      return 0;
+    out.counted_only = true;
+    return std::nullopt;
   }
   if (options.slurm && !finished_stage) {
     sweep::SlurmOptions so;

@@ -6,9 +6,12 @@
 //
 // A study in stages (a preparation whose final states start later runs) runs each stage as its
 // own sweep in OUT/<stage>/ (sweep.toml, runs/). A stage whose points are all finished is read
-// back whatever the options; the first unfinished one is counted (--dry-run), written as a job
-// array (--slurm) or run. Under mpirun, a launch that computed a stage other than the last ends
-// there: the same command again goes on with the next stage.
+// back whatever the options; the first unfinished one is written as a job array (--slurm) or
+// run. --dry-run counts every unfinished stage: a stage after an unfinished one is counted from
+// its scenes with stand-in start states (same N, lengths and integrators; only the start
+// configuration is missing, and the count does not depend on it). Under mpirun, a launch that
+// computed a stage other than the last ends there: the same command again goes on with the next
+// stage.
 #pragma once
 #include <optional>
 #include <string>
@@ -23,6 +26,8 @@ struct SweepStudy {
   std::string table;  // OUT/table.csv, one row per finished point (sweep --collect)
   std::size_t finished = 0;
   double cpu_hours_estimate = 0.0;
+  // --dry-run of a stage that is not the last: counted, not run; its results are stand-ins.
+  bool counted_only = false;
 };
 
 // Where a sweep goes in a study's output folder.
@@ -33,10 +38,11 @@ struct SweepStage {
 };
 
 // Writes the sweep file, then: --dry-run prints the point count and the CPU-hour estimate and
-// returns the exit status 0; --slurm writes the job array and returns 0; otherwise runs every
-// unfinished point. A stop by a signal returns 128 + the signal. Returns nothing when the
-// points are finished (failed points are reported and left out) and, with collect_table, the
-// table is collected into `out`.
+// returns the exit status 0 (a stage before the last: returns nothing, with out.counted_only, so
+// that the study goes on to count the next stage); --slurm writes the job array and returns 0;
+// otherwise runs every unfinished point. A stop by a signal returns 128 + the signal. Returns
+// nothing when the points are finished (failed points are reported and left out) and, with
+// collect_table, the table is collected into `out`.
 std::optional<int> run_sweep_study(const std::string& study, const std::string& sweep_text,
                                    const StudyOptions& options, SweepStudy& out,
                                    const SweepStage& stage = {});

@@ -129,7 +129,8 @@ void anchor_init(Scene& scene, const fs::path& dir) {
 // Expected particle force evaluations of one replica: N x (t_eq + t_av, or max_time) x force
 // passes per unit time. Euler: 1 / dt; RESPA: n_inner (particles inner) or n_inner + 2 (piston
 // inner), x2 with Heun sub-steps, per dt; CVODE,
-// whose steps adapt: 4 per tau_0, what RESPA's dt = 1 costs (a relative cost only).
+// whose steps adapt: 4 per tau_0, what RESPA's dt = 1 costs (a relative cost only). At most the
+// run's budget, N x [run] max_force_evaluations.
 double expected_cost(const RunSpec& spec) {
   const double n = spec.init_state ? double(spec.init_state->size()) : double(spec.n);
   const double length = spec.auto_av ? spec.max_time : spec.t_eq + spec.t_av;
@@ -151,7 +152,11 @@ double expected_cost(const RunSpec& spec) {
       per_time *= (piston ? n_inner + 2.0 : n_inner) * (heun ? 2.0 : 1.0);
     }
   }
-  return n * length * per_time;
+  const double cost = n * length * per_time;
+  // A run stops at its budget of force evaluations ([run] max_force_evaluations).
+  return spec.max_force_evaluations > 0
+             ? std::min(cost, n * double(spec.max_force_evaluations))
+             : cost;
 }
 
 }  // namespace

@@ -298,7 +298,7 @@ std::optional<int> run_ensemble_stage(const std::string& stage, const Preset& p,
                                       const std::string& scene,
                                       const std::vector<std::string>& starts, std::uint64_t seed0,
                                       const StudyOptions& options, std::vector<ReplicaResult>& runs,
-                                      bool last) {
+                                      bool last, bool* counted_only = nullptr) {
   std::vector<RunRequest> requests;
   for (std::size_t k = 0; k < starts.size(); ++k) {
     RunRequest r;
@@ -313,8 +313,11 @@ std::optional<int> run_ensemble_stage(const std::string& stage, const Preset& p,
   if (const auto status = run_stage("ensemble", stage, requests, options, done, last))
     return status;
   runs.clear();
-  for (auto& d : done)
+  for (auto& d : done) {
+    if (counted_only)
+      *counted_only = d.final_xyz == kCountedStart;
     runs.push_back(std::move(d.result));
+  }
   return std::nullopt;
 }
 
@@ -353,9 +356,17 @@ int run_ensemble_study(const StudyOptions& options) {
   np.name = "constant_pressure";
   np.spec =
       spec_from_toml(scene_toml(p, true, phi0, seed0), p.integrator, {}, "<ensemble study NP>");
+  bool np_counted = false;
   if (const auto status = run_ensemble_stage("np", p, scene_toml(p, true, phi0, seed0), np_starts,
-                                             seed0, options, np.runs, false))
+                                             seed0, options, np.runs, false, &np_counted))
     return *status;
+  if (np_counted) {  // --dry-run: count the constant-volume stage at the start phi
+    const std::vector<std::string> stand_ins(np_starts.size(), kCountedStart);
+    std::vector<ReplicaResult> counted;
+    const auto status = run_ensemble_stage("nv", p, scene_toml(p, false, phi0, seed0), stand_ins,
+                                           seed0, options, counted, true);
+    return status.value_or(0);
+  }
   std::string why;
   if (!all_complete(np.runs, why)) {
     std::fprintf(stderr, "jamflow study ensemble: a constant-pressure run failed: %s\n",

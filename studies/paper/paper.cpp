@@ -250,7 +250,7 @@ int run(const StudyOptions& options) {
     std::printf(
         "study paper --preset %s: %zu distinct runs, about %.3g CPU-hours (40 ns per particle "
         "force evaluation; runs that studies share are counted once; a study in stages counts "
-        "its first unfinished stage)\n",
+        "every unfinished stage)\n",
         options.preset.c_str(), tally.scenes.size(), tally.cpu_hours);
     return worst;
   }
