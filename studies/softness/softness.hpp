@@ -78,7 +78,8 @@ struct PStar {
   int smallest = -1;     // the smallest-P usable point (-1: none)
   bool reached = false;  // it agrees with the reference
   double p_star = std::numeric_limits<double>::quiet_NaN();
-  bool p_star_is_smallest = false;  // the next larger usable P already differs
+  bool p_star_is_smallest = false;  // P* is the smallest usable P, and the next larger differs
+  bool p_star_is_largest = false;   // no usable P above P*: the true P* may be larger
 };
 
 // P* = the largest P such that every usable point at P' <= P agrees with the reference (mu and

@@ -49,6 +49,7 @@ TEST(SoftnessStudy, PStarAgainstTheCommonReference) {
   EXPECT_TRUE(a.reached);
   EXPECT_DOUBLE_EQ(a.p_star, 3e-3);
   EXPECT_FALSE(a.p_star_is_smallest);
+  EXPECT_FALSE(a.p_star_is_largest);
   EXPECT_EQ(a.smallest, 1);
   EXPECT_EQ(a.agrees, (std::vector<int>{0, 1, 1}));
   // The smallest P differs: the scan never reached the limit, whatever larger P does.
@@ -62,6 +63,11 @@ TEST(SoftnessStudy, PStarAgainstTheCommonReference) {
   EXPECT_EQ(c.smallest, 1);
   EXPECT_DOUBLE_EQ(c.p_star, 1e-3);
   EXPECT_TRUE(c.p_star_is_smallest);  // mu differs at 1e-2 (14 sigma)
+  // Every usable point agrees: P* is the largest, a lower bound.
+  const PStar e = find_p_star({sv(1e-3, 0.40, 0.578), sv(3e-3, 0.40, 0.579)}, ref);
+  EXPECT_DOUBLE_EQ(e.p_star, 3e-3);
+  EXPECT_TRUE(e.p_star_is_largest);
+  EXPECT_FALSE(e.p_star_is_smallest);
   // No usable reference: nothing is compared.
   const PStar d = find_p_star({sv(1e-3, 0.40, 0.578)}, sv(0.0, 0.4, 0.578, false));
   EXPECT_EQ(d.smallest, -1);
