@@ -981,51 +981,53 @@ int run_softness_preset(const SoftnessPreset& preset, const StudyOptions& option
     for (std::size_t k = 0; k < ds.size(); ++k)
       md += (k ? ", " : "") + short_num(ds[k]);
   }
-  md += "}, without the points below P = " + short_num(preset.p_min) +
-        " (their runs would last t ≥ " + short_num(preset.relax_pressure) +
-        "/P).\n\n"
-        "**A. Fastest stable integrator.** At both ends of each α_r's overlap range (J = " +
-        short_num(j_scan) + "), every setting runs t = " + short_num(1.1 * preset.t_scan) +
-        " from one prepared state (t = max(" + short_num(preset.t_prep) + ", " +
-        short_num(preset.strain_prep) + "/gdot, " + short_num(preset.relax_pressure) +
-        "/P) from a random state at the hard-sphere law's φ): explicit Euler, RESPA (particles "
-        "on the inner level, " +
-        std::to_string(preset.respa_inner) +
-        " Euler sub-steps) and CVODE (atol = rtol × δ). Stable = the stability study's "
-        "verdict, and steady; accurate = |Δμ|/μ ≤ " +
-        num(100 * preset.mu_tolerance, 2) + " % and |Δφ| ≤ " + short_num(preset.phi_tolerance) +
-        " (each plus 2× the paired statistical floor) against the smallest stable Euler step. "
-        "Runs that are not steady or whose blocks are shorter than 2 τ are admitted here: the "
-        "test is paired (same state, same seed), so a slow drift common to both runs cancels "
-        "and short blocks only make it stricter. CVODE's diagnostic window samples every "
-        "0.1/max(1, k), k = (α_r − 1) δ^(α_r − 2) the contact stiffness. Of the settings stable "
-        "and accurate at both ends, the "
-        "integrator is the cheapest in measured CPU seconds per τ0 per particle, averaged over "
-        "the pressure scan it will run (the two ends' costs interpolated in log P, weighted by "
-        "the scan's run lengths).\n\n"
-        "**Common P → 0 reference.** The hard-sphere limit φ(J), μ(J) does not depend on α_r: "
-        "one reference per J, α_r = 2 at P = " +
-        short_num(preset.p_reference) + " (δ = " + short_num(d_ref) + "), CVODE rtol " +
-        short_num(preset.reference_rtol) + ", " + std::to_string(preset.reference_replicas) +
-        " replicas from random states at the hard-sphere law's φ, t_eq = max(" +
-        short_num(preset.relax_pressure) + "/P, " + short_num(preset.strain_eq) +
-        "/gdot), t_av = max(" + short_num(preset.reference_average) + "/P, " +
-        short_num(preset.strain_av) +
-        "/gdot). Errors: the block error of the replica mean, or the replica scatter if "
-        "larger.\n\n"
-        "**B. Pressure scan.** For each J, runs at every P of the grid with the α_r's "
-        "integrator, from random states at the hard-sphere law's φ, t_eq = max(" +
-        short_num(preset.t_min) + ", " + short_num(preset.strain_eq) + "/gdot, " +
-        short_num(preset.relax_pressure) + "/P), t_av = max(" + short_num(preset.t_min) + ", " +
-        short_num(preset.strain_av) + "/gdot, " + short_num(preset.average_pressure) +
-        "/P). P* = the largest P such that μ and φ at it and at every smaller usable P agree "
-        "with the common reference within 2 combined standard errors. If the smallest usable P "
-        "already differs, the α_r never reached the limit within the grid and has no P*. Larger "
-        "error bars make agreement easier: P* is resolution-limited, and quantised by the "
-        "grid.\n\n"
-        "**C. Cost** to shear to strain 1 (the seed's t ≥ 1/gdot) at (P*, J): the measured CPU "
-        "seconds per τ0 per particle of the pressure-scan run at P* × N / (J P*), and its "
-        "particle force evaluations per particle / (J P*).\n\n";
+  md +=
+      "}, without the points below P = " + short_num(preset.p_min) +
+      " (their runs would last t ≥ " + short_num(preset.relax_pressure) +
+      "/P).\n\n"
+      "**A. Fastest stable integrator.** At both ends of each α_r's overlap range (J = " +
+      short_num(j_scan) + "), every setting runs t = " + short_num(1.1 * preset.t_scan) +
+      " from one prepared state (t = max(" + short_num(preset.t_prep) + ", " +
+      short_num(preset.strain_prep) + "/gdot, " + short_num(preset.relax_pressure) +
+      "/P) from a random state at the hard-sphere law's φ): explicit Euler, RESPA (particles "
+      "on the inner level, " +
+      std::to_string(preset.respa_inner) +
+      " Euler sub-steps) and CVODE (atol = rtol × δ). Stable = the stability study's "
+      "verdict (no divergence, no step-to-step oscillation, energy balance); accurate = |Δμ|/μ ≤ " +
+      num(100 * preset.mu_tolerance, 2) + " % and |Δφ| ≤ " + short_num(preset.phi_tolerance) +
+      " (each plus 2× the paired statistical floor) against the smallest stable Euler step. "
+      "Runs that are not steady or whose blocks are shorter than 2 τ are admitted here: the "
+      "test is paired (same state, same seed), so a slow drift common to both runs cancels "
+      "and short blocks only make it stricter. CVODE's diagnostic window samples every "
+      "0.1/max(1, k), k = (α_r − 1) δ^(α_r − 2) the contact stiffness. Of the settings stable "
+      "and accurate at both ends, the "
+      "integrator is the cheapest in measured seconds per τ0 per particle (each run's wall "
+      "time in its one-thread process), averaged over the pressure scan it will run (the two ends' "
+      "costs interpolated in log P, weighted by "
+      "the scan's run lengths).\n\n"
+      "**Common P → 0 reference.** The hard-sphere limit φ(J), μ(J) does not depend on α_r: "
+      "one reference per J, α_r = 2 at P = " +
+      short_num(preset.p_reference) + " (δ = " + short_num(d_ref) + "), CVODE rtol " +
+      short_num(preset.reference_rtol) + ", " + std::to_string(preset.reference_replicas) +
+      " replicas from random states at the hard-sphere law's φ, t_eq = max(" +
+      short_num(preset.relax_pressure) + "/P, " + short_num(preset.strain_eq) +
+      "/gdot), t_av = max(" + short_num(preset.reference_average) + "/P, " +
+      short_num(preset.strain_av) +
+      "/gdot). Errors: the block error of the replica mean, or the replica scatter if "
+      "larger.\n\n"
+      "**B. Pressure scan.** For each J, runs at every P of the grid with the α_r's "
+      "integrator, from random states at the hard-sphere law's φ, t_eq = max(" +
+      short_num(preset.t_min) + ", " + short_num(preset.strain_eq) + "/gdot, " +
+      short_num(preset.relax_pressure) + "/P), t_av = max(" + short_num(preset.t_min) + ", " +
+      short_num(preset.strain_av) + "/gdot, " + short_num(preset.average_pressure) +
+      "/P). P* = the largest P such that μ and φ at it and at every smaller usable P agree "
+      "with the common reference within 2 combined standard errors. If the smallest usable P "
+      "already differs, the α_r never reached the limit within the grid and has no P*. Larger "
+      "error bars make agreement easier: P* is resolution-limited, and quantised by the "
+      "grid.\n\n"
+      "**C. Cost** to shear to strain 1 (the seed's t ≥ 1/gdot) at (P*, J): the measured CPU "
+      "seconds per τ0 per particle of the pressure-scan run at P* × N / (J P*), and its "
+      "particle force evaluations per particle / (J P*).\n\n";
 
   md += "## Common P → 0 reference\n\n";
   {
