@@ -1,6 +1,8 @@
 // Shared toolkit for studies.
 #include "studies/common.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -33,6 +35,18 @@ RunSpec spec_from_toml(const std::string& toml, const IntegratorSettings& integr
   for (const auto& o : overrides)
     scene.set(o);
   return parse_run_spec(scene, integrator);
+}
+
+double hard_sphere_phi(double j, std::int64_t n) {
+  const double nn = double(n);
+  const double phi_j = 0.6474 - 0.323 * std::pow(nn, -0.852);
+  const double b = 0.391 + 0.756 * std::pow(nn, -0.505);
+  const double c = 0.0683 - 1.15 * std::pow(nn, -1.17);
+  return phi_j - c * std::pow(j, b);
+}
+
+double phi_start(double j, std::int64_t n, double below, double phi_max) {
+  return std::clamp(hard_sphere_phi(j, n) - below, 0.3, phi_max);
 }
 
 std::string markdown_table(const std::vector<std::string>& header,

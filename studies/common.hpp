@@ -1,6 +1,7 @@
 // Shared toolkit for studies: run scenes given as TOML text, collect summaries, write
 // markdown tables and call the plotting scripts (Debian's python3 with matplotlib).
 #pragma once
+#include <cstdint>
 #include <map>
 #include <string>
 #include <vector>
@@ -18,6 +19,14 @@ RunSpec spec_from_toml(const std::string& toml, const std::vector<std::string>& 
 RunSpec spec_from_toml(const std::string& toml, const IntegratorSettings& integrator,
                        const std::vector<std::string>& overrides = {},
                        const std::string& source = "<study scene>");
+
+// The seed's hard-sphere law phi(J) = phi_J - C_phi J^b_phi at N particles, with its finite-size
+// forms O(N) = O_inf + A_O N^-alpha_O (Table 2, SPEC §5); below phi_J and at J > 0.
+double hard_sphere_phi(double j, std::int64_t n);
+// A start packing fraction for a constant-pressure run at viscous number J: the hard-sphere law,
+// `below` lower, clamped to [0.3, phi_max]. Only the start: the piston finds the steady state;
+// starting near it shortens the transient.
+double phi_start(double j, std::int64_t n, double below = 0.0, double phi_max = 0.64);
 
 // A markdown table: header names, then rows of already formatted cells.
 std::string markdown_table(const std::vector<std::string>& header,

@@ -219,7 +219,9 @@ WindowResult diagnostic_window(const RunSpec& spec, const State& start,
   std::unique_ptr<Integrator> integ = spec.make_integrator();
   const Ensemble& ens = *spec.ensemble;
   w.adaptive = !(integ->nominal_dt() > 0.0);
-  w.step = w.adaptive ? spec.sample_every / 16.0 : integ->nominal_dt();
+  w.step = !w.adaptive                   ? integ->nominal_dt()
+           : options.adaptive_step > 0.0 ? options.adaptive_step
+                                         : spec.sample_every / 16.0;
   StepCorrelation corr(3);
   LaneAccumulator lanes;
   lanes.add(start);

@@ -79,6 +79,10 @@ class LaneAccumulator {
 struct WindowOptions {
   int steps = 256;          // integrator steps sampled one by one
   int lane_snapshots = 16;  // density snapshots over the window (plus the run's final state)
+  // Adaptive integrators (no nominal dt): the sampling interval; 0: the run's sample_every / 16.
+  // The step-correlation test then measures how smooth the forces are over that interval, so
+  // it must be short next to the contacts' relaxation time to mean anything.
+  double adaptive_step = 0.0;
 };
 
 struct WindowResult {
@@ -99,8 +103,9 @@ struct WindowResult {
   bool finite = true;
 };
 
-// Continues `spec` from `start` for options.steps steps of the integrator's nominal dt (or
-// spec.sample_every / 16 for adaptive integrators), sampling every step.
+// Continues `spec` from `start` for options.steps steps of the integrator's nominal dt (or, for
+// adaptive integrators, options.adaptive_step, by default spec.sample_every / 16), sampling
+// every step.
 WindowResult diagnostic_window(const RunSpec& spec, const State& start,
                                const WindowOptions& options);
 

@@ -77,17 +77,6 @@ Preset preset_of(const std::string& name) {
   throw ConfigError("--preset " + name + "; allowed quick, standard, paper");
 }
 
-// Starting packing fraction: the seed's hard-sphere fit phi = phi_J - C_phi J^b_phi with its
-// finite-size forms O(N) = O_inf + A_O N^-alpha_O (Table 2, SPEC §5), clamped to [0.3, 0.64].
-// Only the start: the piston finds the steady state, this just shortens the transient.
-double phi_start(double j, std::int64_t n) {
-  const double nn = double(n);
-  const double phi_j = 0.6474 - 0.323 * std::pow(nn, -0.852);
-  const double b = 0.391 + 0.756 * std::pow(nn, -0.505);
-  const double c = 0.0683 - 1.15 * std::pow(nn, -1.17);
-  return std::clamp(phi_j - c * std::pow(j, b), 0.3, 0.64);
-}
-
 // The scene without [integrator] (Preset::integrator is handed over typed).
 std::string scene_toml(const Preset& p, bool constant_pressure, double phi, std::uint64_t seed) {
   const double t_eq = constant_pressure ? p.t_eq : p.t_eq_nv;

@@ -10,6 +10,7 @@
 
 #include "lib/config.hpp"
 #include "lib/error.hpp"
+#include "studies/common.hpp"
 
 namespace jamflow::studies::hard_sphere {
 
@@ -21,17 +22,6 @@ double round3(double x) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.3g", x);
   return std::strtod(buf, nullptr);
-}
-
-// Starting packing fraction: the seed's fit phi = phi_J - C_phi J^b_phi with its finite-size
-// forms (Table 2, SPEC §5), 0.01 lower and clamped to [0.3, 0.63]. Only the start: the piston
-// finds the steady state; this shortens the transient.
-double phi_start(double j, std::int64_t n) {
-  const double nn = double(n);
-  const double phi_j = 0.6474 - 0.323 * std::pow(nn, -0.852);
-  const double b = 0.391 + 0.756 * std::pow(nn, -0.505);
-  const double c = 0.0683 - 1.15 * std::pow(nn, -1.17);
-  return std::clamp(phi_j - c * std::pow(j, b) - 0.01, 0.3, 0.63);
 }
 
 }  // namespace
@@ -122,7 +112,8 @@ std::string sweep_text(const GridPreset& g) {
             round3(std::max({g.strain_eq / gdot, g.relax_pressure / p, g.t_eq_min}));
         const double t_av = round3(std::max(g.strain_av / gdot, g.t_av_min));
         n_axis.push_back(n);
-        phi_axis.push_back(std::round(phi_start(j, n) * 1e4) / 1e4);
+        // The start: the seed's hard-sphere law, 0.01 lower and at most 0.63.
+        phi_axis.push_back(std::round(phi_start(j, n, 0.01, 0.63) * 1e4) / 1e4);
         p_axis.push_back(p);
         rate_axis.push_back(gdot);
         teq_axis.push_back(t_eq);

@@ -1,15 +1,20 @@
-// Softness study end to end on a tiny version of the quick preset (harmonic only): outputs
-// exist, dt = 0.05 is stable and accurate, dt = 1.5 is not, so dt_max = 0.05, and the cost
-// follows particle-steps = 1 / (J P* dt_max).
+// Softness study: the P* rule against the common reference on synthetic scans, the shared
+// hard-sphere start, the cost model, and the study end to end on a tiny version of the quick
+// preset (harmonic only): outputs exist, Euler dt = 1.5 is not stable, the integrator chosen is
+// the cheapest stable and accurate setting, P* agrees with the common reference, and the cost
+// at P* follows the measured cost per tau_0.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 
 #include "lib/h5.hpp"
+#include "studies/common.hpp"
 #include "studies/softness/softness.hpp"
 #include "tests/studies/jamflow_exe.hpp"
 
@@ -18,6 +23,72 @@ using namespace jamflow::studies;
 
 TEST(SoftnessStudy, CostModel) {
   EXPECT_DOUBLE_EQ(steps_per_particle(0.1, 1e-3, 0.5), 1.0 / (0.1 * 1e-3 * 0.5));
+  EXPECT_DOUBLE_EQ(cost_to_strain_one(2e-7, 0.1, 1e-3), 2e-7 / (0.1 * 1e-3));
+}
+
+TEST(SoftnessStudy, HardSphereStart) {
+  // The seed's law at N = 250: phi_J = 0.6445, C = 0.0665, so phi(J = 1) = 0.578.
+  EXPECT_NEAR(hard_sphere_phi(1.0, 250), 0.578, 0.001);
+  EXPECT_LT(hard_sphere_phi(1.0, 250), hard_sphere_phi(0.1, 250));
+  EXPECT_DOUBLE_EQ(phi_start(1.0, 250, 0.01, 0.63), hard_sphere_phi(1.0, 250) - 0.01);
+  EXPECT_DOUBLE_EQ(phi_start(1e-12, 250, 0.0, 0.63), 0.63);  // clamped
+  EXPECT_DOUBLE_EQ(phi_start(1e6, 250), 0.3);
+}
+
+namespace {
+ScanValue sv(double p, double mu, double phi, bool usable = true) {
+  return {p, usable, mu, 0.005, phi, 0.001};
+}
+}  // namespace
+
+TEST(SoftnessStudy, PStarAgainstTheCommonReference) {
+  const ScanValue ref = sv(0.0, 0.40, 0.578);
+  // Listed in any order: 1e-3 and 3e-3 agree, 1e-2 differs in phi by 10 sigma.
+  const PStar a =
+      find_p_star({sv(1e-2, 0.40, 0.592), sv(1e-3, 0.401, 0.5785), sv(3e-3, 0.399, 0.5795)}, ref);
+  EXPECT_TRUE(a.reached);
+  EXPECT_DOUBLE_EQ(a.p_star, 3e-3);
+  EXPECT_FALSE(a.p_star_is_smallest);
+  EXPECT_FALSE(a.p_star_is_largest);
+  EXPECT_EQ(a.smallest, 1);
+  EXPECT_EQ(a.agrees, (std::vector<int>{0, 1, 1}));
+  // The smallest P differs: the scan never reached the limit, whatever larger P does.
+  const PStar b = find_p_star({sv(3e-3, 0.40, 0.578), sv(1e-3, 0.40, 0.590)}, ref);
+  EXPECT_FALSE(b.reached);
+  EXPECT_TRUE(std::isnan(b.p_star));
+  // An unusable point is not compared, and does not break the chain.
+  const PStar c =
+      find_p_star({sv(1e-4, 0.2, 0.7, false), sv(1e-3, 0.40, 0.578), sv(1e-2, 0.30, 0.578)}, ref);
+  EXPECT_EQ(c.agrees[0], -1);
+  EXPECT_EQ(c.smallest, 1);
+  EXPECT_DOUBLE_EQ(c.p_star, 1e-3);
+  EXPECT_TRUE(c.p_star_is_smallest);  // mu differs at 1e-2 (14 sigma)
+  // Every usable point agrees: P* is the largest, a lower bound.
+  const PStar e = find_p_star({sv(1e-3, 0.40, 0.578), sv(3e-3, 0.40, 0.579)}, ref);
+  EXPECT_DOUBLE_EQ(e.p_star, 3e-3);
+  EXPECT_TRUE(e.p_star_is_largest);
+  EXPECT_FALSE(e.p_star_is_smallest);
+  // No usable reference: nothing is compared.
+  const PStar d = find_p_star({sv(1e-3, 0.40, 0.578)}, sv(0.0, 0.4, 0.578, false));
+  EXPECT_EQ(d.smallest, -1);
+  EXPECT_TRUE(std::isnan(d.p_star));
+}
+
+TEST(SoftnessStudy, PresetsAndEstimate) {
+  const SoftnessPreset s = softness_preset("standard");
+  EXPECT_NE(std::find(s.alphas.begin(), s.alphas.end(), 1.75), s.alphas.end());
+  const SoftnessPreset p = softness_preset("paper");
+  EXPECT_NE(std::find(p.alphas.begin(), p.alphas.end(), 1.75), p.alphas.end());
+  // The reference lies well below every alpha_r = 2 grid pressure.
+  for (const auto& pr : {softness_preset("quick"), s, p}) {
+    for (double d : pr.deltas)
+      EXPECT_LE(pr.p_reference, 0.1 * d) << pr.name;
+  }
+  // The standard preset is planned for about 1-1.5 CPU-hours; quick for CI.
+  const SoftnessEstimate e = estimate_softness(s);
+  EXPECT_GT(e.total(), 0.3);
+  EXPECT_LT(e.total(), 1.6);
+  EXPECT_LT(estimate_softness(softness_preset("quick")).total(), 0.1);
 }
 
 TEST(SoftnessStudy, TinyQuickPreset) {
@@ -25,13 +96,21 @@ TEST(SoftnessStudy, TinyQuickPreset) {
   p.n = 100;
   p.alphas = {2.0};
   p.deltas = {1e-2, 3e-3};
+  p.p_min = 0.0;
   p.scan_dts = {0.05, 1.5};
+  p.respa_dts = {};
+  p.cvode_tols = {1e-3};
   p.t_prep = 200.0;
   p.strain_prep = 0.0;
   p.t_scan = 240.0;
   p.t_min = 300.0;
   p.strain_eq = 0.0;
   p.strain_av = 0.0;
+  p.relax_pressure = 2.0;
+  p.average_pressure = 20.0;  // blocks of 1 / P: runs can pass the decorrelated verdict
+  p.p_reference = 1e-3;
+  p.reference_average = 2.0;
+  p.reference_replicas = 2;
   p.budget_particle_steps = 0.0;  // no budget: the runs are short
   const std::string dir =
       ::testing::TempDir() + "jamflow_softness_study." + std::to_string(::getpid());
@@ -45,8 +124,8 @@ TEST(SoftnessStudy, TinyQuickPreset) {
   ASSERT_EQ(run_softness_preset(p, o), 0);
   // Every run is a point file of the sweep engine; a rerun reads them back, computing nothing.
   const auto files = point_files(dir);
-  EXPECT_GE(files.size(), 2u);
-  o.no_plots = true;  // the plots of the first run stay
+  EXPECT_EQ(files.size(), 2u + 6u + 2u + 2u);  // preps, scans, pressure scans, reference
+  o.no_plots = true;                           // the plots of the first run stay
   ASSERT_EQ(run_softness_preset(p, o), 0);
   EXPECT_EQ(point_files(dir), files);
   ASSERT_TRUE(std::filesystem::exists(dir + "/report.md"));
@@ -54,37 +133,103 @@ TEST(SoftnessStudy, TinyQuickPreset) {
   if (std::filesystem::exists("/usr/bin/python3")) {
     EXPECT_TRUE(std::filesystem::exists(dir + "/softness_cost.png"));
   }
+  std::ifstream in(dir + "/report.md");
+  const std::string report((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_NE(report.find("## Common P → 0 reference"), std::string::npos);
 
   H5Reader r(dir + "/softness.h5");
   const std::string a = "/alphas/a00";
   EXPECT_DOUBLE_EQ(r.attr_double(a, "alpha"), 2.0);
-  // A run enters the conclusions only if it is stable and passes its own verdicts; this tiny
-  // system may still drift (not steady) or have blocks shorter than 2 tau (correlated, one
-  // replica): then the report lists it among the runs left out.
-  bool all_in = true;
+  // Settings in order: Euler 0.05, Euler 1.5, CVODE 1e-3. Euler 1.5 is not stable.
+  bool usable = true;
   for (const std::string end : {"/scan_hi", "/scan_lo"}) {
+    EXPECT_EQ(r.attr_string(a + end + "/runs/r000", "setting"), "euler dt=0.05");
     const std::string v0 = r.attr_string(a + end + "/runs/r000", "verdict");
     EXPECT_TRUE(v0 == "stable" || v0 == "not steady" || v0 == "correlated") << v0;
-    all_in = all_in && v0 == "stable";
+    usable = usable && (v0 == "stable" || v0 == "correlated");
     const std::string v = r.attr_string(a + end + "/runs/r001", "verdict");
     EXPECT_TRUE(v == "oscillating" || v == "diverged") << v;
+    EXPECT_EQ(r.attr_int(a + end + "/runs/r001", "accurate"), 0);
   }
-  if (all_in)
-    EXPECT_DOUBLE_EQ(r.attr_double(a, "dt_max"), 0.05);
+  if (usable)
+    EXPECT_DOUBLE_EQ(r.attr_double(a, "euler_dt_max"), 0.05);
   else
-    EXPECT_TRUE(std::isnan(r.attr_double(a, "dt_max")));
-  // The pressure scan runs at dt_max, or at the smallest scanned step when none is found.
+    EXPECT_TRUE(std::isnan(r.attr_double(a, "euler_dt_max")));
+  // The integrator is the cheapest candidate that is stable and accurate at both ends.
+  if (r.attr_int(a, "integrator_verified") == 1) {
+    double best = std::numeric_limits<double>::infinity();
+    std::string best_label;
+    for (int k = 0; k < 3; ++k) {
+      const std::string c = a + "/candidates/c" + std::to_string(k);
+      if (r.attr_int(c, "ok") == 1 && r.attr_double(c, "seconds_per_tau_particle") < best) {
+        best = r.attr_double(c, "seconds_per_tau_particle");
+        best_label = r.attr_string(c, "setting");
+      }
+    }
+    EXPECT_EQ(r.attr_string(a, "integrator"), best_label);
+    EXPECT_NE(best_label, "euler dt=1.5");
+  }
+  // The common reference: harmonic, a packing fraction of a flowing dense suspension.
+  const std::string ref = "/reference/J1";
+  EXPECT_DOUBLE_EQ(r.attr_double(ref, "pressure"), 1e-3);
+  if (r.attr_int(ref, "usable") == 1) {
+    EXPECT_GT(r.attr_double(ref, "phi"), 0.45);
+    EXPECT_LT(r.attr_double(ref, "phi"), 0.66);
+    EXPECT_GT(r.attr_double(ref, "phi_err"), 0.0);
+  }
+  // Every usable pressure-scan run is compared with the reference: agrees = both mu and phi
+  // within 2 combined standard errors; "reached" = the smallest usable P agrees.
   const std::string pg = a + "/pscan/J1";
+  const bool ref_ok = r.attr_int(ref, "usable") == 1;
+  int smallest_agrees = -1;
+  double smallest_p = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 2; ++k) {
+    const std::string rg = pg + "/runs/r00" + std::to_string(k);
+    const bool run_ok = r.attr_string(rg, "verdict") == "stable";
+    const auto agrees = r.attr_int(rg, "agrees");
+    if (!run_ok || !ref_ok) {
+      EXPECT_EQ(agrees, -1) << rg;
+      continue;
+    }
+    const bool within = std::abs(r.attr_double(rg, "dmu")) <= 2.0 * r.attr_double(rg, "dmu_err") &&
+                        std::abs(r.attr_double(rg, "dphi")) <= 2.0 * r.attr_double(rg, "dphi_err");
+    EXPECT_EQ(agrees, within ? 1 : 0) << rg;
+    EXPECT_NEAR(r.attr_double(rg, "dphi"),
+                r.attr_double(rg, "summary_phi") - r.attr_double(ref, "phi"), 1e-12);
+    if (r.attr_double(rg, "pressure") < smallest_p) {
+      smallest_p = r.attr_double(rg, "pressure");
+      smallest_agrees = int(agrees);
+    }
+  }
+  EXPECT_EQ(r.attr_int(pg, "reached"), smallest_agrees == 1 ? 1 : 0);
+  // P*: every usable run at or below it agrees with the reference, and its cost to strain 1 is
+  // its measured cost per tau_0 x N / (J P*).
   const double p_star = r.attr_double(pg, "p_star");
   if (std::isfinite(p_star)) {
-    EXPECT_NEAR(r.attr_double(pg, "steps_per_particle"), steps_per_particle(1.0, p_star, 0.05),
-                1e-9 * steps_per_particle(1.0, p_star, 0.05));
+    EXPECT_EQ(r.attr_int(pg, "reached"), 1);
+    bool found = false;
+    for (int k = 0; k < 2; ++k) {
+      const std::string rg = pg + "/runs/r00" + std::to_string(k);
+      const double pr = r.attr_double(rg, "pressure");
+      if (pr <= p_star && r.attr_int(rg, "agrees") >= 0) {
+        EXPECT_EQ(r.attr_int(rg, "agrees"), 1) << rg;
+        EXPECT_LE(std::abs(r.attr_double(rg, "dphi")), 2.0 * r.attr_double(rg, "dphi_err"));
+      }
+      if (pr == p_star) {
+        found = true;
+        const double per_tau =
+            r.attr_double(rg, "cpu_seconds") / (r.attr_double(rg, "duration") * 100.0);
+        EXPECT_NEAR(r.attr_double(pg, "cpu_seconds_N"), per_tau * 100.0 / p_star,
+                    1e-9 * per_tau * 100.0 / p_star);
+      }
+    }
+    EXPECT_TRUE(found);
+  } else {
+    EXPECT_TRUE(std::isnan(r.attr_double(pg, "cpu_seconds_N")));
   }
-  if (!all_in || !std::isfinite(p_star)) {
-    std::ifstream in(dir + "/report.md");
-    const std::string report((std::istreambuf_iterator<char>(in)), {});
-    const auto at = report.find("## Runs left out by their verdicts");
-    ASSERT_NE(at, std::string::npos);
+  const auto at = report.find("## Runs left out by their verdicts");
+  ASSERT_NE(at, std::string::npos);
+  if (!usable || !std::isfinite(p_star)) {
     EXPECT_NE(report.find("\n- ", at), std::string::npos) << report.substr(at);
   }
 }
