@@ -53,6 +53,24 @@ Table read_table(const std::string& path) {
   return t;
 }
 
+double points_cpu_hours(const std::string& dir) {
+  namespace fs = std::filesystem;
+  double seconds = 0.0;
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(dir, ec);
+       !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+    if (it->path().filename() != "table.csv")
+      continue;
+    const Table t = read_table(it->path().string());
+    for (std::size_t r = 0; r < t.rows.size(); ++r) {
+      const double w = t.number(r, "wall_seconds");
+      if (std::isfinite(w))
+        seconds += w;
+    }
+  }
+  return seconds / 3600.0;
+}
+
 std::string read_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::ostringstream os;

@@ -22,6 +22,10 @@ struct Table {
 Table read_table(const std::string& path);  // an empty table if the file is absent
 std::string read_file(const std::string& path);
 
+// The CPU-hours of the points under `dir`: the wall_seconds column (each replica one thread,
+// summed over replicas) of every collected table.csv below it.
+double points_cpu_hours(const std::string& dir);
+
 // The analysis JSON written by `jamflow analyze` (an empty object, with a warning on stderr,
 // if it is absent or unreadable).
 analysis::Json read_analysis(const std::string& study, const std::string& json_path);

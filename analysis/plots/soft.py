@@ -45,10 +45,10 @@ def joint_figures(s):
     # Beside each fitted value its bootstrap error and the paper's (Table 2 at N -> infinity).
     axes[0][0].plot(jj, C_phi * jj ** b_phi, "k-",
                     label=rf"$b_\varphi = {b_phi:.3f} \pm {err[4]:.3f}$ (paper 0.391), "
-                          rf"$C_\varphi = {C_phi:.4f} \pm {err[3]:.4f}$ (0.0683)")
+                          rf"$C_\varphi = {C_phi:.4f} \pm {err[3]:.4f}$ (0.0683; paper: N$\to\infty$)")
     axes[0][1].plot(jj, C_mu * jj ** b_mu, "k-",
                     label=rf"$b_\mu = {b_mu:.3f} \pm {err[9]:.3f}$ (paper 0.346), "
-                          rf"$C_\mu = {C_mu:.3f} \pm {err[8]:.3f}$ (0.347)")
+                          rf"$C_\mu = {C_mu:.3f} \pm {err[8]:.3f}$ (0.347; paper: N$\to\infty$)")
     axes[0][0].set(xscale="log", yscale="log", xlabel=r"$J$", ylabel=r"$\varphi_J(P) - \varphi$",
                    title="(a)")
     axes[0][1].set(xscale="log", yscale="log", xlabel=r"$J$", ylabel=r"$\mu - \mu_J(P)$",
@@ -56,10 +56,10 @@ def joint_figures(s):
     pp = np.logspace(np.log10(pressures.min()) - 0.3, np.log10(pressures.max()) + 0.3, 100)
     axes[1][0].plot(pp, phi_j0 + c_phi * pp ** x, "k-",
                     label=rf"$x = {x:.3f} \pm {err[2]:.3f}$ (paper 0.75), "
-                          rf"$\varphi_J(0) = {phi_j0:.4f} \pm {err[0]:.4f}$ (0.6474)")
+                          rf"$\varphi_J(0) = {phi_j0:.4f} \pm {err[0]:.4f}$ (0.6474 at N$\to\infty$)")
     axes[1][1].plot(pp, mu_j0 - c_mu * pp ** y, "k-",
                     label=rf"$y = {y:.3f} \pm {err[7]:.3f}$ (paper 0.56), "
-                          rf"$\mu_J(0) = {mu_j0:.3f} \pm {err[5]:.3f}$ (0.108)")
+                          rf"$\mu_J(0) = {mu_j0:.3f} \pm {err[5]:.3f}$ (0.108 at N$\to\infty$)")
     axes[1][0].set(xscale="log", xlabel=r"$P$", ylabel=r"$\varphi_J(P)$", title="(c)")
     axes[1][1].set(xscale="log", xlabel=r"$P$", ylabel=r"$\mu_J(P)$", title="(d)")
     for ax in list(axes[0]) + list(axes[1]):

@@ -14,6 +14,7 @@
 #include "lib/error.hpp"
 #include "studies/common.hpp"
 #include "studies/study.hpp"
+#include "studies/table_report.hpp"
 #include "sweep/engine.hpp"
 #include "sweep/mpi.hpp"
 #include "sweep/slurm.hpp"
@@ -42,16 +43,9 @@ const Part kParts[] = {
     {"olsson-teitel", "Fig. 9: the Olsson-Teitel collapse against the soft rheology"},
 };
 
-std::string read_file(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream os;
-  os << in.rdbuf();
-  return os.str();
-}
-
 // The opening of a study's report: the lines between its title and its first section.
 std::string headline(const fs::path& report) {
-  std::istringstream in(read_file(report));
+  std::istringstream in(read_file(report.string()));
   std::string line, out;
   bool titled = false;
   while (std::getline(in, line)) {
@@ -70,38 +64,6 @@ std::string headline(const fs::path& report) {
   return first == std::string::npos ? std::string() : out.substr(first);
 }
 
-// CPU hours of a study's points: the wall_seconds column (each replica on one thread, summed
-// over replicas) of every collected table under its folder.
-double points_cpu_hours(const fs::path& dir) {
-  double seconds = 0.0;
-  std::error_code ec;
-  for (auto it = fs::recursive_directory_iterator(dir, ec);
-       !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
-    if (it->path().filename() != "table.csv")
-      continue;
-    std::istringstream in(read_file(it->path()));
-    std::string header, line;
-    std::getline(in, header);
-    int column = -1, c = 0;
-    std::stringstream hs(header);
-    for (std::string cell; std::getline(hs, cell, ','); ++c) {
-      if (cell == "wall_seconds")
-        column = c;
-    }
-    if (column < 0)
-      continue;
-    while (std::getline(in, line)) {
-      std::stringstream ls(line);
-      std::string cell;
-      for (int k = 0; k <= column && std::getline(ls, cell, ','); ++k) {
-      }
-      if (!cell.empty())
-        seconds += std::strtod(cell.c_str(), nullptr);
-    }
-  }
-  return seconds / 3600.0;
-}
-
 // Table 2 beside jamflow's N -> infinity values (finite-size/analysis.json).
 std::string table2_section(const fs::path& analysis) {
   struct Seed {
@@ -118,7 +80,7 @@ std::string table2_section(const fs::path& analysis) {
   }
   analysis::Json j;
   try {
-    j = analysis::Json::parse(read_file(analysis));
+    j = analysis::Json::parse(read_file(analysis.string()));
   } catch (const std::exception& e) {
     md << "`finite-size/analysis.json` cannot be read: " << e.what() << "\n";
     return md.str();
@@ -239,7 +201,7 @@ int run(const StudyOptions& options) {
                                               : "failed (exit " + std::to_string(status) + ")";
     const fs::path report = dir / "report.md";
     rows.push_back({part.seed, part.study, what.empty() ? verdict : verdict + ": " + what,
-                    num(wall / 60.0, 3) + " min", num(points_cpu_hours(dir), 3),
+                    num(wall / 60.0, 3) + " min", num(points_cpu_hours(dir.string()), 3),
                     fs::exists(report) ? "[" + std::string(part.study) + "/report.md](" +
                                              std::string(part.study) + "/report.md)"
                                        : "-"});
