@@ -139,19 +139,7 @@ using V = hn::Vec<D>;
 struct VecMath {
   D d;
   V splat(double c) const { return hn::Set(d, c); }
-  // 1 / sqrt(x) to round-off: the single-precision estimate (12 bits or better) and three Newton
-  // steps (each squares the relative error: 4e-4, 2e-7, 6e-14, then round-off). Kept off the
-  // divider, which the division by a_ij already occupies. x below 1e-30 (two centres closer
-  // than 1e-15) is taken as 1e-30.
-  V rsqrt(V x) const {
-    const hn::Rebind<float, D> df;
-    V y = hn::PromoteTo(
-        d, hn::ApproximateReciprocalSqrt(hn::DemoteTo(df, hn::Max(x, hn::Set(d, 1e-30)))));
-    const V h = hn::Mul(hn::Set(d, 0.5), x), three_halves = hn::Set(d, 1.5);
-    for (int k = 0; k < 3; ++k)
-      y = hn::Mul(y, hn::NegMulAdd(h, hn::Mul(y, y), three_halves));
-    return y;
-  }
+  V sqrt(V x) const { return hn::Sqrt(x); }
   // x^p for x in (0, 1]: exact shortcuts for the exponents the studies use (alpha_r = 1.5, 2.5,
   // 3), exp(p log x) otherwise.
   V pow(V x, double p) const {
