@@ -21,7 +21,7 @@ struct PairValue {
 // The laws' arithmetic on doubles.
 struct ScalarMath {
   static double splat(double c) { return c; }
-  static double rsqrt(double x) { return 1.0 / std::sqrt(x); }
+  static double sqrt(double x) { return std::sqrt(x); }
   static double pow(double x, double p) { return std::pow(x, p); }
 };
 

@@ -139,19 +139,7 @@ using V = hn::Vec<D>;
 struct VecMath {
   D d;
   V splat(double c) const { return hn::Set(d, c); }
-  // 1 / sqrt(x) to round-off: the single-precision estimate (12 bits or better) and three Newton
-  // steps (each squares the relative error: 4e-4, 2e-7, 6e-14, then round-off). Kept off the
-  // divider, which the division by a_ij already occupies. x below 1e-30 (two centres closer
-  // than 1e-15) is taken as 1e-30.
-  V rsqrt(V x) const {
-    const hn::Rebind<float, D> df;
-    V y = hn::PromoteTo(
-        d, hn::ApproximateReciprocalSqrt(hn::DemoteTo(df, hn::Max(x, hn::Set(d, 1e-30)))));
-    const V h = hn::Mul(hn::Set(d, 0.5), x), three_halves = hn::Set(d, 1.5);
-    for (int k = 0; k < 3; ++k)
-      y = hn::Mul(y, hn::NegMulAdd(h, hn::Mul(y, y), three_halves));
-    return y;
-  }
+  V sqrt(V x) const { return hn::Sqrt(x); }
   // x^p for x in (0, 1]: exact shortcuts for the exponents the studies use (alpha_r = 1.5, 2.5,
   // 3), exp(p log x) otherwise.
   V pow(V x, double p) const {
@@ -327,48 +315,75 @@ HWY_INLINE void Loop(const Pair& pair, PairLoop& p) {
     LoopOf<false>(pair, p);
 }
 
+// The cell of a layout, h (xx, xy, yy, zz), as vectors.
+struct Cell {
+  V xx, xy, yy, zz;
+  explicit Cell(D d, const simd_detail::Rows& a)
+      : xx(hn::Set(d, a.hxx)),
+        xy(hn::Set(d, a.hxy)),
+        yy(hn::Set(d, a.hyy)),
+        zz(hn::Set(d, a.hzz)) {}
+};
+// The rows of particles i..i+3 at the scaled positions (x, y, z) (lanes), (h s, a), with their
+// force rows zeroed, and their squared real-space displacements since `ref` folded into m (the
+// largest) and sum.
+HWY_INLINE void LayOutBlock(D d, const simd_detail::Rows& a, const Cell& c, std::size_t i, V x, V y,
+                            V z, V& m, V& sum) {
+  const std::size_t n = a.n;
+  const double* ref = a.ref;
+  const V zero = hn::Zero(d);
+  V r[4];
+  Transpose(d, hn::MulAdd(c.xy, y, hn::Mul(c.xx, x)), hn::Mul(c.yy, y), hn::Mul(c.zz, z),
+            hn::Mul(hn::Set(d, 0.5), hn::LoadU(d, a.diameter + i)), r[0], r[1], r[2], r[3]);
+  for (std::size_t k = 0; k < 4; ++k) {
+    hn::Store(r[k], d, a.pos + 4 * (i + k));
+    hn::Store(zero, d, a.frc + 4 * (i + k));
+  }
+  const V ux = hn::Sub(x, hn::LoadU(d, ref + i)), uy = hn::Sub(y, hn::LoadU(d, ref + n + i)),
+          uz = hn::Sub(z, hn::LoadU(d, ref + 2 * n + i));
+  const V rx = hn::MulAdd(c.xy, uy, hn::Mul(c.xx, ux)), ry = hn::Mul(c.yy, uy),
+          rz = hn::Mul(c.zz, uz);
+  const V d2 = hn::MulAdd(rz, rz, hn::MulAdd(ry, ry, hn::Mul(rx, rx)));
+  m = hn::Max(m, d2);  // a NaN never wins the max, but it poisons the sum
+  sum = hn::Add(sum, d2);
+}
+
+// The largest squared displacement of LayOut's lanes m and sum and the particles from i on.
+HWY_INLINE double LayOutRest(D d, const simd_detail::Rows& a, std::size_t i, V m, V sum) {
+  double mx = hn::GetLane(hn::MaxOfLanes(d, m)), total = LaneSum(d, sum);
+  LayOutFrom(a, i, mx, total);
+  return std::isfinite(total) ? mx : std::nan("");
+}
+
 // The rows of particles [lo, hi): (h s, a) from the scaled SoA positions s, four particles per
 // transpose, with their force rows zeroed; in the same pass, the largest squared real-space
 // displacement since `ref` (NaN if a position is not finite), as
 // NeighbourList::max_displacement2 measures it.
 double LayOut(const simd_detail::Rows& a) {
   const D d;
-  const V vxx = hn::Set(d, a.hxx), vxy = hn::Set(d, a.hxy), vyy = hn::Set(d, a.hyy),
-          vzz = hn::Set(d, a.hzz), half = hn::Set(d, 0.5), zero = hn::Zero(d);
+  const Cell c(d, a);
   const std::size_t n = a.n;
   const double* s = a.s;
-  const double* ref = a.ref;
-  V m = zero, sum = zero;
+  V m = hn::Zero(d), sum = hn::Zero(d);
   std::size_t i = a.lo;
   for (; i + 4 <= a.hi; i += 4) {
-    const V x = hn::LoadU(d, s + i), y = hn::LoadU(d, s + n + i), z = hn::LoadU(d, s + 2 * n + i);
-    V r[4];
-    Transpose(d, hn::MulAdd(vxy, y, hn::Mul(vxx, x)), hn::Mul(vyy, y), hn::Mul(vzz, z),
-              hn::Mul(half, hn::LoadU(d, a.diameter + i)), r[0], r[1], r[2], r[3]);
-    for (std::size_t k = 0; k < 4; ++k) {
-      hn::Store(r[k], d, a.pos + 4 * (i + k));
-      hn::Store(zero, d, a.frc + 4 * (i + k));
-    }
-    const V ux = hn::Sub(x, hn::LoadU(d, ref + i)), uy = hn::Sub(y, hn::LoadU(d, ref + n + i)),
-            uz = hn::Sub(z, hn::LoadU(d, ref + 2 * n + i));
-    const V rx = hn::MulAdd(vxy, uy, hn::Mul(vxx, ux)), ry = hn::Mul(vyy, uy),
-            rz = hn::Mul(vzz, uz);
-    const V d2 = hn::MulAdd(rz, rz, hn::MulAdd(ry, ry, hn::Mul(rx, rx)));
-    m = hn::Max(m, d2);  // a NaN never wins the max, but it poisons the sum
-    sum = hn::Add(sum, d2);
+    LayOutBlock(d, a, c, i, hn::LoadU(d, s + i), hn::LoadU(d, s + n + i),
+                hn::LoadU(d, s + 2 * n + i), m, sum);
   }
-  double mx = hn::GetLane(hn::MaxOfLanes(d, m)), total = LaneSum(d, sum);
-  LayOutFrom(a, i, mx, total);
-  return std::isfinite(total) ? mx : std::nan("");
+  return LayOutRest(d, a, i, m, sum);
 }
 
 // The final force rows of particles [lo, hi) into the SoA result f (n per component); returns
 // sum |F|^2 over them. With a drift (xx, xy, yy, zz of lib/kernels/backend.hpp's Drift), each
-// particle's scaled position in s then moves by it, in Drift::apply's order of operations.
+// particle's scaled position in s then moves by it, in Drift::apply's order of operations; with
+// `next` too (its positions are s, its range [lo, hi)), the moved particles' rows are laid out
+// in the same loop, as LayOut(*next) would lay them out afterwards, and *next_drift2 gets what
+// it would return.
 double CopyOut(const double* frc, double* f, std::size_t n, std::size_t lo, std::size_t hi,
-               const double* drift, double* s) {
+               const double* drift, double* s, const simd_detail::Rows* next, double* next_drift2) {
   const D d;
-  V acc = hn::Zero(d);
+  V acc = hn::Zero(d), m = hn::Zero(d), sum = hn::Zero(d);
+  const Cell c(d, next ? *next : simd_detail::Rows{});
   std::size_t i = lo;
   for (; i + 4 <= hi; i += 4) {
     V x, y, z, w;
@@ -379,16 +394,20 @@ double CopyOut(const double* frc, double* f, std::size_t n, std::size_t lo, std:
     hn::StoreU(z, d, f + 2 * n + i);
     acc = hn::MulAdd(z, z, hn::MulAdd(y, y, hn::MulAdd(x, x, acc)));
     if (drift) {
-      const V sx = hn::LoadU(d, s + i), sy = hn::LoadU(d, s + n + i),
-              sz = hn::LoadU(d, s + 2 * n + i);
-      hn::StoreU(
-          hn::Add(sx, hn::Add(hn::Mul(hn::Set(d, drift[0]), x), hn::Mul(hn::Set(d, drift[1]), y))),
-          d, s + i);
-      hn::StoreU(hn::Add(sy, hn::Mul(hn::Set(d, drift[2]), y)), d, s + n + i);
-      hn::StoreU(hn::Add(sz, hn::Mul(hn::Set(d, drift[3]), z)), d, s + 2 * n + i);
+      const V sx = hn::Add(hn::LoadU(d, s + i), hn::Add(hn::Mul(hn::Set(d, drift[0]), x),
+                                                        hn::Mul(hn::Set(d, drift[1]), y)));
+      const V sy = hn::Add(hn::LoadU(d, s + n + i), hn::Mul(hn::Set(d, drift[2]), y));
+      const V sz = hn::Add(hn::LoadU(d, s + 2 * n + i), hn::Mul(hn::Set(d, drift[3]), z));
+      hn::StoreU(sx, d, s + i);
+      hn::StoreU(sy, d, s + n + i);
+      hn::StoreU(sz, d, s + 2 * n + i);
+      if (next)
+        LayOutBlock(d, *next, c, i, sx, sy, sz, m, sum);
     }
   }
   const double rest = CopyOutFrom(frc, f, n, i, hi, drift, s);
+  if (next)
+    *next_drift2 = LayOutRest(d, *next, i, m, sum);
   return LaneSum(d, acc) + rest;
 }
 #else
@@ -442,8 +461,11 @@ double LayOut(const simd_detail::Rows& a) {
 }
 
 double CopyOut(const double* frc, double* f, std::size_t n, std::size_t lo, std::size_t hi,
-               const double* drift, double* s) {
-  return CopyOutFrom(frc, f, n, lo, hi, drift, s);
+               const double* drift, double* s, const simd_detail::Rows* next, double* next_drift2) {
+  const double f2 = CopyOutFrom(frc, f, n, lo, hi, drift, s);
+  if (next)
+    *next_drift2 = LayOut(*next);
+  return f2;
 }
 #endif
 
@@ -695,24 +717,26 @@ bool SimdBackend::pass(const State& state, const NeighbourList& list, ForceResul
                        row[2] += df.fz;
                      });
       }
-      sums.squared[tid] = copy_out(frc, fx, n, lo, hi, drift ? dmat : nullptr, moving);
+      // With a next cell, no thread reads this range's rows any more: the next pass's are laid
+      // out as each particle moves.
+      simd_detail::Rows next_rows{};
       if (drift && h_next) {
-        // No thread reads this range's rows any more: lay out the next pass's.
         const Eigen::Matrix3d& hn = *h_next;
-        const simd_detail::Rows next_rows{moving,
-                                          have_ref ? ref : moving,
-                                          state.diameter.data(),
-                                          n,
-                                          lo,
-                                          hi,
-                                          hn(0, 0),
-                                          hn(0, 1),
-                                          hn(1, 1),
-                                          hn(2, 2),
-                                          pos,
-                                          frc};
-        next_drift2[tid] = lay_out(next_rows);
+        next_rows = {moving,
+                     have_ref ? ref : moving,
+                     state.diameter.data(),
+                     n,
+                     lo,
+                     hi,
+                     hn(0, 0),
+                     hn(0, 1),
+                     hn(1, 1),
+                     hn(2, 2),
+                     pos,
+                     frc};
       }
+      sums.squared[tid] = copy_out(frc, fx, n, lo, hi, drift ? dmat : nullptr, moving,
+                                   drift && h_next ? &next_rows : nullptr, &next_drift2[tid]);
     }
   }
   sums.finish(out, have_ref);
