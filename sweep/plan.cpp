@@ -154,9 +154,8 @@ double expected_cost(const RunSpec& spec) {
   }
   const double cost = n * length * per_time;
   // A run stops at its budget of force evaluations ([run] max_force_evaluations).
-  return spec.max_force_evaluations > 0
-             ? std::min(cost, n * double(spec.max_force_evaluations))
-             : cost;
+  return spec.max_force_evaluations > 0 ? std::min(cost, n * double(spec.max_force_evaluations))
+                                        : cost;
 }
 
 }  // namespace
