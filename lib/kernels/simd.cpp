@@ -7,10 +7,16 @@
 // four at a time: the rows of the four i, the four j and the four image shifts are loaded and
 // transposed to coordinate vectors, the pair law (lib/potential.hpp, the same template the
 // other backends use) runs on them, and the four pair forces are transposed back and added to
-// force rows of the same shape. A force on a partner in another thread's range is deferred and
-// added by its owner after the pair loops, in thread order, as in the portable backend; so a
-// given thread count always gives the same bits. Targets narrower than 256 bits run the same
-// loop one pair at a time.
+// force rows of the same shape. Targets narrower than 256 bits run the same loop one pair at a
+// time.
+//
+// Threads. Each thread owns a contiguous range of particles and the pairs stored at them. A
+// partner in another thread's range is a ghost: the thread copies its row into a ghost row of
+// its own at the start of the pass, its pair forces go to that ghost's force row, and after the
+// pair loops the owner adds the ghost force rows of the other threads, in thread order; so a
+// given thread count always gives the same bits. Rows are shared between cores only in these
+// two contiguous copies: a cache line that moves between cores costs about 0.2 us on the
+// machines this runs on, too much to pay inside the pair loop.
 #include <omp.h>
 
 #include <algorithm>
@@ -18,6 +24,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -32,19 +39,15 @@ namespace jamflow::kernels::simd_detail {
 #ifndef JAMFLOW_SIMD_DETAIL_ONCE
 #define JAMFLOW_SIMD_DETAIL_ONCE
 struct PairLoop {
-  const double* pos;    // rows (x, y, z, a_i), 4 doubles per particle, 32-byte aligned
-  double* frc;          // force rows, same layout
-  const double* shift;  // real-space image shifts, one row per image code
-  const std::uint32_t* owner;
-  const std::uint32_t* entries;
+  const double* pos;             // rows (x, y, z, a_i), 4 doubles per particle, 32-byte aligned
+  double* frc;                   // force rows, same layout
+  const double* shift;           // real-space image shifts, one row per image code
+  const std::uint32_t* owner;    // the pairs' owners' rows
+  const std::uint32_t* entries;  // their partners' rows << kCodeBits | image code
   std::size_t k0, k1;
-  std::uint32_t lo, hi;  // partners outside go to `deferred` (unless single)
-  std::uint32_t idle;    // a row of this thread's at the origin with radius 0 (padding lanes)
-  bool single;           // one thread: every partner is this thread's
+  std::uint32_t idle;  // a row of this thread's at the origin with radius 0 (padding lanes)
   double alpha;
-  DeferredForce* deferred;
   // Results.
-  std::size_t deferred_count;
   double energy, virial[6];  // xx yy zz xy xz yz
   std::size_t contacts;
 };
@@ -196,12 +199,9 @@ struct Sums {
   hn::Indices256<double> lane[4];  // permutations that spread lane l over all four
 };
 
-// The pair law on a chunk, and its pair forces added to the rows of both particles (or, for a
-// partner outside [lo, hi), deferred). `Single`: one thread, every partner is its own.
-template <bool Single, class Pair>
-HWY_INLINE void EvaluateChunk(D d, const Pair& pair, const Chunk& c, double* frc,
-                              std::size_t lo_off, std::size_t hi_off, DeferredForce* deferred,
-                              std::size_t& nd, Sums& s) {
+// The pair law on a chunk, and its pair forces added to the rows of both particles.
+template <class Pair>
+HWY_INLINE void EvaluateChunk(D d, const Pair& pair, const Chunk& c, double* frc, Sums& s) {
   const VecMath m{d};
   V rx, ry, rz, a;
   Transpose(d, c.d[0], c.d[1], c.d[2], c.d[3], rx, ry, rz, a);
@@ -230,19 +230,13 @@ HWY_INLINE void EvaluateChunk(D d, const Pair& pair, const Chunk& c, double* frc
     const V g = hn::Mul(fr[l], c.d[l]);
     double* fi = frc + c.io[l];
     hn::Store(hn::Add(hn::Load(d, fi), g), d, fi);
-    if (Single || (c.jo[l] >= lo_off && c.jo[l] < hi_off)) {
-      double* fj = frc + c.jo[l];
-      hn::Store(hn::Sub(hn::Load(d, fj), g), d, fj);
-    } else {
-      alignas(32) double t[4];
-      hn::Store(g, d, t);
-      deferred[nd++] = {std::uint32_t(c.jo[l] >> 2), -t[0], -t[1], -t[2]};
-    }
+    double* fj = frc + c.jo[l];
+    hn::Store(hn::Sub(hn::Load(d, fj), g), d, fj);
   }
 }
 
-template <bool Single, class Pair>
-HWY_INLINE void LoopOf(const Pair& pair, PairLoop& p) {
+template <class Pair>
+HWY_INLINE void Loop(const Pair& pair, PairLoop& p) {
   const D d;
   alignas(32) static constexpr double kSign[4] = {1.0, 1.0, 1.0, -1.0};
   const V zero = hn::Zero(d), sign = hn::Load(d, kSign);
@@ -251,14 +245,11 @@ HWY_INLINE void LoopOf(const Pair& pair, PairLoop& p) {
     const std::int64_t idx[4] = {l, l, l, l};
     s.lane[l] = hn::SetTableIndices(d, idx);
   }
-  std::size_t nd = 0;
   const double* pos = p.pos;
   const double* shift = p.shift;
   double* frc = p.frc;
-  DeferredForce* deferred = p.deferred;
   const std::uint32_t* owner = p.owner;
   const std::uint32_t* entries = p.entries;
-  const std::size_t lo_off = std::size_t(p.lo) << 2, hi_off = std::size_t(p.hi) << 2;
   const std::size_t k0 = p.k0, k1 = p.k1, full = k0 + (k1 - k0) / 4 * 4;
   // Full chunks. With 32 vector registers (AVX-512) the next chunk's rows are loaded while the
   // current one is evaluated; with 16 (AVX2) that would spill, and one chunk at a time is faster.
@@ -266,7 +257,7 @@ HWY_INLINE void LoopOf(const Pair& pair, PairLoop& p) {
     for (std::size_t k = k0; k < full; k += 4) {
       Chunk a;
       LoadChunk(d, pos, shift, sign, owner + k, entries + k, a);
-      EvaluateChunk<Single>(d, pair, a, frc, lo_off, hi_off, deferred, nd, s);
+      EvaluateChunk(d, pair, a, frc, s);
     }
   } else if (k0 < full) {
     Chunk a, b;
@@ -274,16 +265,16 @@ HWY_INLINE void LoopOf(const Pair& pair, PairLoop& p) {
     std::size_t k = k0 + 4;
     for (; k + 4 < full; k += 8) {
       LoadChunk(d, pos, shift, sign, owner + k, entries + k, b);
-      EvaluateChunk<Single>(d, pair, a, frc, lo_off, hi_off, deferred, nd, s);
+      EvaluateChunk(d, pair, a, frc, s);
       LoadChunk(d, pos, shift, sign, owner + k + 4, entries + k + 4, a);
-      EvaluateChunk<Single>(d, pair, b, frc, lo_off, hi_off, deferred, nd, s);
+      EvaluateChunk(d, pair, b, frc, s);
     }
     if (k < full) {
       LoadChunk(d, pos, shift, sign, owner + k, entries + k, b);
-      EvaluateChunk<Single>(d, pair, a, frc, lo_off, hi_off, deferred, nd, s);
-      EvaluateChunk<Single>(d, pair, b, frc, lo_off, hi_off, deferred, nd, s);
+      EvaluateChunk(d, pair, a, frc, s);
+      EvaluateChunk(d, pair, b, frc, s);
     } else {
-      EvaluateChunk<Single>(d, pair, a, frc, lo_off, hi_off, deferred, nd, s);
+      EvaluateChunk(d, pair, a, frc, s);
     }
   }
   if (full < k1) {  // the last, partial chunk: padding pairs are (idle, idle) with no shift
@@ -295,24 +286,14 @@ HWY_INLINE void LoopOf(const Pair& pair, PairLoop& p) {
     }
     Chunk c;
     LoadChunk(d, pos, shift, sign, own, ent, c);
-    // Padding forces are zero; with several threads they are deferred to the idle row, which
-    // lies beyond every particle and so is never added.
-    EvaluateChunk<Single>(d, pair, c, frc, lo_off, hi_off, deferred, nd, s);
+    // Padding pairs join the idle row to itself: their forces are zero.
+    EvaluateChunk(d, pair, c, frc, s);
   }
   p.energy = LaneSum(d, s.u);
   const V w[6] = {s.wxx, s.wyy, s.wzz, s.wxy, s.wxz, s.wyz};
   for (int c = 0; c < 6; ++c)
     p.virial[c] = LaneSum(d, w[c]);
   p.contacts = s.contacts;
-  p.deferred_count = nd;
-}
-
-template <class Pair>
-HWY_INLINE void Loop(const Pair& pair, PairLoop& p) {
-  if (p.single)
-    LoopOf<true>(pair, p);
-  else
-    LoopOf<false>(pair, p);
 }
 
 // The cell of a layout, h (xx, xy, yy, zz), as vectors.
@@ -417,7 +398,7 @@ constexpr bool kVector = false;
 template <class Pair>
 HWY_INLINE void Loop(const Pair& pair, PairLoop& p) {
   double u = 0.0, w[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
-  std::size_t contacts = 0, nd = 0;
+  std::size_t contacts = 0;
   for (std::size_t k = p.k0; k < p.k1; ++k) {
     const std::uint32_t e = p.entries[k];
     const std::size_t i = p.owner[k], j = e >> NeighbourList::kCodeBits;
@@ -439,19 +420,14 @@ HWY_INLINE void Loop(const Pair& pair, PairLoop& p) {
     w[4] += dx * g[2];
     w[5] += dy * g[2];
     ++contacts;
-    for (int c = 0; c < 3; ++c)
+    for (int c = 0; c < 3; ++c) {
       p.frc[4 * i + c] += g[c];
-    if (p.single || (j >= p.lo && j < p.hi)) {
-      for (int c = 0; c < 3; ++c)
-        p.frc[4 * j + c] -= g[c];
-    } else {
-      p.deferred[nd++] = {std::uint32_t(j), -g[0], -g[1], -g[2]};
+      p.frc[4 * j + c] -= g[c];
     }
   }
   p.energy = u;
   std::copy(w, w + 6, p.virial);
   p.contacts = contacts;
-  p.deferred_count = nd;
 }
 
 double LayOut(const simd_detail::Rows& a) {
@@ -575,10 +551,70 @@ class SimdBackend final : public ForceBackend {
   double alpha_;
   int threads_;
   hwy::AlignedFreeUniquePtr<double[]> rows_;  // position rows, then force rows
-  std::size_t rows_size_ = 0;
-  std::vector<std::vector<DeferredForce>> deferred_;
-  std::vector<std::size_t> deferred_count_;
+  std::size_t row_capacity_ = 0;              // position rows allocated; the force rows follow them
+
+  // The ghosts of a split of one inner list among threads (see the top of this file).
+  struct Halo {
+    std::uint64_t generation = 0;  // the inner list's (0: none)
+    std::size_t n = 0;
+    int threads = 0;
+    std::size_t rows = 0;  // particles, idle rows and every thread's ghost rows
+    struct Part {
+      std::vector<std::uint32_t> entries;  // the thread's pairs, partners renumbered to rows
+      std::vector<std::uint32_t> source;   // ghost g's particle, ascending
+      std::size_t first = 0;               // the row of ghost 0
+    };
+    std::vector<Part> part;
+  };
+  Halo halo_;
+
+  // Ensures room for `rows` position rows and as many force rows; a new allocation drops the
+  // rows laid out ahead.
+  void reserve_rows(std::size_t rows) {
+    if (row_capacity_ >= rows)
+      return;
+    row_capacity_ = rows + rows / 8;
+    rows_ = hwy::AllocateAligned<double>(8 * row_capacity_);
+    ahead_.version = 0;
+  }
 };
+
+// Splits thread tid's pairs [k0, k1) of the inner list between its own particles [lo, hi) and
+// ghosts: the ghosts' particles, ascending, into part.source, and the pairs' entries into
+// part.entries with the partners' particle numbers, the ghosts' still as ghost numbers (the
+// rows follow once every thread's count is known).
+void split_pairs(const NeighbourList& list, std::size_t k0, std::size_t k1, std::size_t lo,
+                 std::size_t hi, std::vector<std::uint32_t>& source) {
+  constexpr unsigned bits = NeighbourList::kCodeBits;
+  const std::uint32_t* entries = list.inner_entries().data();
+  source.clear();
+  for (std::size_t k = k0; k < k1; ++k) {
+    const std::size_t j = entries[k] >> bits;
+    if (j < lo || j >= hi)
+      source.push_back(std::uint32_t(j));
+  }
+  std::sort(source.begin(), source.end());
+  source.erase(std::unique(source.begin(), source.end()), source.end());
+}
+
+void renumber_pairs(const NeighbourList& list, std::size_t k0, std::size_t k1, std::size_t lo,
+                    std::size_t hi, const std::vector<std::uint32_t>& source, std::size_t first,
+                    std::vector<std::uint32_t>& out) {
+  constexpr unsigned bits = NeighbourList::kCodeBits;
+  const std::uint32_t* entries = list.inner_entries().data();
+  out.resize(k1 - k0);
+  for (std::size_t k = k0; k < k1; ++k) {
+    const std::uint32_t e = entries[k];
+    const std::size_t j = e >> bits;
+    if (j >= lo && j < hi) {
+      out[k - k0] = e;
+    } else {
+      const std::size_t g = std::size_t(
+          std::lower_bound(source.begin(), source.end(), std::uint32_t(j)) - source.begin());
+      out[k - k0] = std::uint32_t((first + g) << bits) | (e & NeighbourList::kCodeMask);
+    }
+  }
+}
 
 bool SimdBackend::pass(const State& state, const NeighbourList& list, ForceResult& out,
                        std::uint64_t version, const Drift* drift, double* moving,
@@ -586,16 +622,6 @@ bool SimdBackend::pass(const State& state, const NeighbourList& list, ForceResul
   const std::size_t n = state.size();
   out.force.resize(3 * n);
   const int nt = threads_;
-  const std::size_t rows = n + std::size_t(nt);  // particles, then one idle row per thread
-  if (rows_size_ < 8 * rows) {
-    rows_ = hwy::AllocateAligned<double>(8 * rows);
-    rows_size_ = 8 * rows;
-  }
-  double* pos = rows_.get();
-  double* frc = pos + 4 * rows;
-  deferred_.resize(std::max<std::size_t>(deferred_.size(), nt));
-  deferred_count_.assign(nt, 0);
-
   const Eigen::Matrix3d h = state.box.h();
   const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
   alignas(64) double shift[27 * 4];
@@ -629,30 +655,76 @@ bool SimdBackend::pass(const State& state, const NeighbourList& list, ForceResul
   const double dmat[4] = {drift ? drift->xx : 0.0, drift ? drift->xy : 0.0, drift ? drift->yy : 0.0,
                           drift ? drift->zz : 0.0};
   bool holds = true;
+  // The ghosts of this list and size, if they were found before (for `halo_threads` threads).
+  const int halo_threads = halo_.generation == list.inner_generation() && halo_.n == n &&
+                                   have_ref && list.inner_generation() != 0
+                               ? halo_.threads
+                               : 0;
+  // Rows: particles, one idle row per thread, then the ghosts (known once the split is); at
+  // most one ghost per pair, and a list entry must be able to name every row.
+  if (n + 2 * std::size_t(nt) + list.inner_pairs() > std::size_t(NeighbourList::kMaxParticles))
+    throw std::length_error("simd backend: " + std::to_string(n) + " particles and " +
+                            std::to_string(list.inner_pairs()) +
+                            " pairs may need more rows than a list entry can name");
+  reserve_rows(halo_threads == nt ? halo_.rows : n + std::size_t(nt));
   // The rows laid out ahead, if they are this state's; any pass uses them up.
   const bool ahead = version != 0 && ahead_.version == version && have_ref &&
                      ahead_.generation == list.inner_generation() && ahead_.n == n &&
                      ahead_.h[0] == hxx && ahead_.h[1] == hxy && ahead_.h[2] == hyy &&
-                     ahead_.h[3] == hzz && rows_size_ >= 8 * rows;
+                     ahead_.h[3] == hzz;
   const int ahead_threads = ahead_.threads;
   ahead_.version = 0;
   if (ahead)
     sums.drift2 = ahead_.drift2;
   std::vector<double> next_drift2(nt, 0.0);
   int used_threads = 1;
+  double* pos = rows_.get();
+  double* frc = pos + 4 * row_capacity_;
 
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
     const int tid = omp_get_thread_num();
     const int nthr = omp_get_num_threads();
+    const auto range = thread_range(start, n, tid, nthr);  // no binding: see portable.cpp
+    const std::size_t lo = range.first, hi = range.second;
+    const std::size_t k0 = start[lo], k1 = start[hi];
     // Every thread decides the same.
-    const bool reuse = ahead && nthr == ahead_threads;
+    const bool split = nthr > 1 && nthr != halo_threads;
+    if (split) {
+      // A new list, size or team: find each thread's ghosts, then their rows (each thread's
+      // from a fresh cache line), then renumber the pairs.
+#pragma omp single
+      {
+        halo_.generation = 0;
+        halo_.part.resize(nthr);
+      }
+      Halo::Part& own = halo_.part[tid];
+      split_pairs(list, k0, k1, lo, hi, own.source);
+#pragma omp barrier
+#pragma omp single
+      {
+        std::size_t row = n + std::size_t(nthr);
+        for (Halo::Part& part : halo_.part) {
+          row = (row + 1) / 2 * 2;  // two rows to a cache line
+          part.first = row;
+          row += part.source.size();
+        }
+        reserve_rows(row);
+        pos = rows_.get();
+        frc = pos + 4 * row_capacity_;
+        halo_.generation = list.inner_generation();
+        halo_.n = n;
+        halo_.threads = nthr;
+        halo_.rows = row;
+      }
+      renumber_pairs(list, k0, k1, lo, hi, own.source, own.first, own.entries);
+    }
+    // A new allocation or a new split drops the rows laid out ahead.
+    const bool reuse = ahead && nthr == ahead_threads && !split;
     if (tid == 0) {
       used_threads = nthr;
       reused_ += reuse ? 1 : 0;
     }
-    const auto range = thread_range(start, n, tid, nthr);  // no binding: see portable.cpp
-    const std::size_t lo = range.first, hi = range.second;
     // Without a reference the displacement is not used (finish() reports it as infinite).
     const simd_detail::Rows rows_of{state.pos.data(),
                                     have_ref ? ref : state.pos.data(),
@@ -671,17 +743,21 @@ bool SimdBackend::pass(const State& state, const NeighbourList& list, ForceResul
     const std::size_t idle = n + std::size_t(tid);
     std::fill(pos + 4 * idle, pos + 4 * idle + 4, 0.0);
     std::fill(frc + 4 * idle, frc + 4 * idle + 4, 0.0);
-    std::vector<DeferredForce>& deferred = deferred_[tid];
-    if (nthr > 1) {
-      // At most one per pair, and three padding pairs.
-      deferred.resize(std::max<std::size_t>(deferred.size(), start[hi] - start[lo] + 4));
-      // Every row is written before any thread reads its partners' (rows laid out ahead were
+    const Halo::Part* own = nthr > 1 ? &halo_.part[tid] : nullptr;
+    if (own) {
+      // Every row is written before any thread copies its ghosts' (rows laid out ahead were
       // written before the previous pass ended; a branch every thread takes alike).
       if (!reuse) {
 #pragma omp barrier
       }
+      const std::size_t g0 = own->first, ng = own->source.size();
+      for (std::size_t g = 0; g < ng; ++g) {
+        std::copy_n(pos + 4 * std::size_t(own->source[g]), 4, pos + 4 * (g0 + g));
+        std::fill_n(frc + 4 * (g0 + g), 4, 0.0);
+      }
     }
-    // Every thread decides the same (they read the same displacements after the barrier).
+    // Every thread decides the same (they read the same displacements after the barrier; with
+    // one thread there is nothing to wait for).
     const bool go = !drift || list_holds();
     if (tid == 0)
       holds = go;
@@ -690,32 +766,33 @@ bool SimdBackend::pass(const State& state, const NeighbourList& list, ForceResul
       p.pos = pos;
       p.frc = frc;
       p.shift = shift;
-      p.owner = list.inner_owner().data();
-      p.entries = list.inner_entries().data();
-      p.k0 = start[lo];
-      p.k1 = start[hi];
-      p.lo = std::uint32_t(lo);
-      p.hi = std::uint32_t(hi);
+      p.owner = list.inner_owner().data() + k0;
+      p.entries = own ? own->entries.data() : list.inner_entries().data() + k0;
+      p.k0 = 0;
+      p.k1 = k1 - k0;
       p.idle = std::uint32_t(idle);
-      p.single = nthr == 1;
       p.alpha = alpha_;
-      p.deferred = deferred.data();
       pairs(p);
       sums.energy[tid] = p.energy;
       sums.virial[tid] << p.virial[0], p.virial[1], p.virial[2], p.virial[3], p.virial[4],
           p.virial[5];
       sums.contacts[tid] = p.contacts;
-      deferred_count_[tid] = p.deferred_count;
-      if (nthr > 1) {
+      if (own) {
 #pragma omp barrier
-        // The forces other threads deferred to this range, in thread order.
-        add_deferred(deferred_, deferred_count_, lo, hi,
-                     [&](std::uint32_t j, const DeferredForce& df) {
-                       double* row = frc + 4 * std::size_t(j);
-                       row[0] += df.fx;
-                       row[1] += df.fy;
-                       row[2] += df.fz;
-                     });
+        // The other threads' ghost forces on this range, in thread order.
+        for (const Halo::Part& part : halo_.part) {
+          if (&part == own)
+            continue;
+          const auto first =
+              std::lower_bound(part.source.begin(), part.source.end(), std::uint32_t(lo));
+          for (auto g = first; g != part.source.end() && *g < hi; ++g) {
+            const double* gf = frc + 4 * (part.first + std::size_t(g - part.source.begin()));
+            double* row = frc + 4 * std::size_t(*g);
+            row[0] += gf[0];
+            row[1] += gf[1];
+            row[2] += gf[2];
+          }
+        }
       }
       // With a next cell, no thread reads this range's rows any more: the next pass's are laid
       // out as each particle moves.
