@@ -84,10 +84,12 @@ TEST(SoftnessStudy, PresetsAndEstimate) {
     for (double d : pr.deltas)
       EXPECT_LE(pr.p_reference, 0.1 * d) << pr.name;
   }
-  // The standard preset is planned for about 1-1.5 CPU-hours; quick for CI.
+  // The standard preset is planned for at most 2 CPU-hours by the model (the brief's "about
+  // 2 h on 2 cores", with room); quick for CI. With the grid down to delta = 1e-4 the model
+  // gives 1.75; the run itself took 20 min on one core (the model overestimates CVODE).
   const SoftnessEstimate e = estimate_softness(s);
   EXPECT_GT(e.total(), 0.3);
-  EXPECT_LT(e.total(), 1.6);
+  EXPECT_LT(e.total(), 2.0);
   EXPECT_LT(estimate_softness(softness_preset("quick")).total(), 0.1);
 }
 
