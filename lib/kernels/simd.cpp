@@ -579,11 +579,9 @@ class SimdBackend final : public ForceBackend {
   }
 };
 
-// Splits thread tid's pairs [k0, k1) of the inner list between its own particles [lo, hi) and
-// ghosts: the ghosts' particles, ascending, into part.source, and the pairs' entries into
-// part.entries with the partners' particle numbers, the ghosts' still as ghost numbers (the
-// rows follow once every thread's count is known).
-void split_pairs(const NeighbourList& list, std::size_t k0, std::size_t k1, std::size_t lo,
+// The ghosts of a thread that owns the particles [lo, hi) and the pairs [k0, k1) of the inner
+// list: the partners outside [lo, hi), ascending, each once.
+void find_ghosts(const NeighbourList& list, std::size_t k0, std::size_t k1, std::size_t lo,
                  std::size_t hi, std::vector<std::uint32_t>& source) {
   constexpr unsigned bits = NeighbourList::kCodeBits;
   const std::uint32_t* entries = list.inner_entries().data();
@@ -597,6 +595,8 @@ void split_pairs(const NeighbourList& list, std::size_t k0, std::size_t k1, std:
   source.erase(std::unique(source.begin(), source.end()), source.end());
 }
 
+// The entries of the pairs [k0, k1) with each ghost partner's number replaced by its row
+// (`first` + its place in `source`); own partners keep theirs.
 void renumber_pairs(const NeighbourList& list, std::size_t k0, std::size_t k1, std::size_t lo,
                     std::size_t hi, const std::vector<std::uint32_t>& source, std::size_t first,
                     std::vector<std::uint32_t>& out) {
@@ -699,7 +699,7 @@ bool SimdBackend::pass(const State& state, const NeighbourList& list, ForceResul
         halo_.part.resize(nthr);
       }
       Halo::Part& own = halo_.part[tid];
-      split_pairs(list, k0, k1, lo, hi, own.source);
+      find_ghosts(list, k0, k1, lo, hi, own.source);
 #pragma omp barrier
 #pragma omp single
       {
