@@ -71,6 +71,15 @@ double points_cpu_hours(const std::string& dir) {
   return seconds / 3600.0;
 }
 
+std::string cost_line(const std::string& dir, double cpu_hours_estimate, double wall_seconds) {
+  return "- Cost: " + num(points_cpu_hours(dir), 3) +
+         " hours measured (the runs' wall seconds, one thread each, summed: CPU-hours on a "
+         "quiet machine, more on a shared one, where a run also waits for a core), against " +
+         num(cpu_hours_estimate, 3) + " CPU-hours estimated; this invocation took " +
+         num(wall_seconds / 60.0, 3) +
+         " min of wall time (points finished earlier are not rerun).\n\n";
+}
+
 std::string read_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::ostringstream os;

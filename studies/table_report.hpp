@@ -26,6 +26,10 @@ std::string read_file(const std::string& path);
 // summed over replicas) of every collected table.csv below it.
 double points_cpu_hours(const std::string& dir);
 
+// A report's cost line: the points' measured hours under `dir` against the estimate, and this
+// invocation's wall time.
+std::string cost_line(const std::string& dir, double cpu_hours_estimate, double wall_seconds);
+
 // The analysis JSON written by `jamflow analyze` (an empty object, with a warning on stderr,
 // if it is absent or unreadable).
 analysis::Json read_analysis(const std::string& study, const std::string& json_path);

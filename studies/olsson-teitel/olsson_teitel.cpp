@@ -100,13 +100,7 @@ int report(const VolumePreset& preset, const SweepStudy& run, const StudyOptions
         "1e-4, else RESPA (particles inner).\n\n";
   md << "- Points: " << run.plan.points.size() << " x " << run.plan.replicas << " replicas, "
      << run.finished << " finished in every replica (table.csv).\n";
-  md << "- Cost: " << num(points_cpu_hours(out), 3)
-     << " hours measured (the runs' wall seconds, one thread each, summed: CPU-hours on a quiet "
-        "machine, more on a shared one, where a run also waits for a core), against "
-     << num(run.cpu_hours_estimate, 3) << " CPU-hours estimated; this invocation took "
-     << num(wall_seconds / 60.0, 3)
-     << " min of wall time (points finished earlier are not "
-        "rerun).\n\n";
+  md << cost_line(out, run.cpu_hours_estimate, wall_seconds);
   {
     double gmin = 1e300, gmax = 0.0;
     std::set<double> below, above;

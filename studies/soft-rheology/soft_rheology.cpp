@@ -95,13 +95,7 @@ int report(const soft_rheology::Preset& preset, const SweepStudy& cp, const Swee
      << " finished in every replica (constant-pressure/table.csv).\n";
   md << "- Constant volume: " << cv.plan.points.size() << " points x " << cv.plan.replicas
      << " replicas, " << cv.finished << " finished (constant-volume/table.csv).\n";
-  md << "- Cost: " << num(points_cpu_hours(out), 3)
-     << " hours measured (the runs' wall seconds, one thread each, summed: CPU-hours on a quiet "
-        "machine, more on a shared one, where a run also waits for a core), against "
-     << num(cp.cpu_hours_estimate + cv.cpu_hours_estimate, 3)
-     << " CPU-hours estimated; this invocation took " << num(wall_seconds / 60.0, 3)
-     << " min of wall time (points finished earlier are not "
-        "rerun).\n\n";
+  md << cost_line(out, cp.cpu_hours_estimate + cv.cpu_hours_estimate, wall_seconds);
   md << "## Verdicts\n\n"
      << verdicts_markdown(cp_table, "constant-pressure")
      << verdicts_markdown(cv_table, "constant-volume");
