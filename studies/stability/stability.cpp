@@ -18,6 +18,11 @@
 
 namespace jamflow::studies {
 
+namespace {
+// Time for phi to relax at pressure P, in units of xi_s a / P (as the timestep study uses).
+constexpr double kRelaxPressure = 5.0;
+}  // namespace
+
 StabilityPreset stability_preset(const std::string& name) {
   StabilityPreset p;
   p.name = name;
@@ -160,8 +165,13 @@ std::vector<StabilityCase> stability_cases(const StabilityPreset& p) {
       c.point = base;
       c.point.n = n;
       c.point.pressure = pr;
-      c.point.phi = pr > 5e-3 ? 0.68 : 0.64;
       c.point.gdot = p.respa_size_j * pr;
+      // Start at the hard-sphere law's phi for this J and N, and prepare for at least the
+      // pressure relaxation time 5 / P (units xi_s a / P). Started at phi = 0.64, the piston
+      // dilated the random state to phi = 0.35 at P = 1e-4 and it was still compressing, at
+      // 0.49, when a preparation of t = 2e3 ended (standard preset: every such scan not steady).
+      c.point.phi = phi_start(c.point.gdot / pr, n);
+      c.t_prep_min = kRelaxPressure / pr;
       c.name = "RESPA N=" + std::to_string(n) + " P=" + short_num(pr);
       c.why =
           "RESPA, particles on the inner level, against N: the outer-level piston's rate "
@@ -340,7 +350,9 @@ std::string respa_size_section(const std::vector<CaseResult>& results,
       "RESPA with the particles on the inner level (4 explicit-Euler sub-steps) and the piston "
       "on the outer level, at J = " +
       short_num(preset.respa_size_j) +
-      " (gdot = J P), each size prepared as the other cases. The piston's relaxation rate "
+      " (gdot = J P). Each size starts at the hard-sphere law's phi for its J and N and is "
+      "prepared for at least 5 / P, the time phi takes to relax at pressure P. The piston's "
+      "relaxation rate "
       "K / (V xi_V) grows as the box volume V shrinks, so the outer step that the piston "
       "tolerates shrinks with N. c is the force step correlation of the diagnostic window "
       "(oscillating below 0.9).\n\n" +
@@ -378,7 +390,8 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
   for (const auto& c : cases) {
     const double dt_prep = c.stiff ? preset.stiff_dts.front() : std::min(0.05, preset.dts.front());
     // (the smallest step of the case's scan, so that the shared state is a stable one)
-    const double t = duration(preset.strain_prep, c.point.gdot, preset.t_prep_min);
+    const double t =
+        std::max(duration(preset.strain_prep, c.point.gdot, preset.t_prep_min), c.t_prep_min);
     RunRequest r;
     r.label = c.name + " prep";
     r.scene = scene_toml(c.point, euler_setting(dt_prep), 0.0, t, t / 200.0);

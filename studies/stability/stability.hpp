@@ -51,6 +51,7 @@ struct StabilityCase {
   bool lanes = false;       // N = 100 near jamming
   bool respa_size = false;  // the RESPA-against-N scan: only its RESPA steps
   double strain_av = 0.0;
+  double t_prep_min = 0.0;  // a longer preparation than the preset's (0: the preset's)
 };
 
 std::vector<StabilityCase> stability_cases(const StabilityPreset& preset);
