@@ -28,7 +28,9 @@ struct StudyOptions {
   // --dry-run of several studies (`study paper`): each sweep adds the estimate of the tasks
   // whose scene no earlier sweep had (those would be reused, not run).
   struct DryRunTally {
-    double cpu_hours = 0.0;
+    double cpu_hours = 0.0;       // every distinct run
+    double cpu_hours_left = 0.0;  // the distinct runs not finished yet
+    std::size_t finished = 0;     // distinct runs finished before (their files say done)
     std::set<std::string> scenes;
   };
   DryRunTally* tally = nullptr;

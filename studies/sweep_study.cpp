@@ -21,6 +21,32 @@ bool all_done(const sweep::Plan& plan) {
   return true;
 }
 
+struct RunsLeft {
+  std::size_t finished = 0;  // runs whose files say done
+  double cpu_hours = 0.0;    // the others' estimate (a checkpointed run counts whole)
+};
+
+// The plan's finished runs and what is left, added to the tally of `study paper --dry-run`
+// (each distinct scene once).
+RunsLeft count_runs(const sweep::Plan& plan, const sweep::CostEstimate& cost,
+                    StudyOptions::DryRunTally* tally) {
+  RunsLeft left;
+  const double hours_per_step =
+      cost.particle_steps > 0.0 ? cost.cpu_hours / cost.particle_steps : 0.0;
+  for (const auto& t : plan.tasks()) {
+    const bool done = sweep::probe(plan, t) == sweep::TaskState::kDone;
+    const double hours = hours_per_step * t.cost;
+    left.finished += done ? 1 : 0;
+    left.cpu_hours += done ? 0.0 : hours;
+    if (tally && tally->scenes.insert(plan.task_scene(t).text()).second) {
+      tally->cpu_hours += hours;
+      tally->cpu_hours_left += done ? 0.0 : hours;
+      tally->finished += done ? 1 : 0;
+    }
+  }
+  return left;
+}
+
 }  // namespace
 
 std::optional<int> run_sweep_study(const std::string& study, const std::string& sweep_text,
@@ -47,26 +73,22 @@ std::optional<int> run_sweep_study(const std::string& study, const std::string& 
   // A finished stage of a study in stages is read back: the next stage is the one to count,
   // write or run.
   const bool finished_stage = !stage.name.empty() && all_done(out.plan);
-  if (options.dry_run && !finished_stage && options.tally && cost.particle_steps > 0.0) {
-    double fresh = 0.0;
-    for (const auto& t : out.plan.tasks()) {
-      if (options.tally->scenes.insert(out.plan.task_scene(t).text()).second)
-        fresh += t.cost;
+  if (options.dry_run) {
+    // A finished stage is counted in the tally, and read back for the next stage.
+    const RunsLeft left = count_runs(out.plan, cost, options.tally);
+    if (!finished_stage) {
+      std::printf(
+          "%s --preset %s: %zu points x %lld replicas = %zu runs, %.3g particle force "
+          "evaluations, about %.3g CPU-hours (40 ns each; CVODE counted as 4 per tau_0); "
+          "%zu finished, about %.3g CPU-hours left -> %s%s\n",
+          what.c_str(), options.preset.c_str(), out.plan.points.size(),
+          static_cast<long long>(out.plan.replicas), cost.tasks, cost.particle_steps,
+          cost.cpu_hours, left.finished, left.cpu_hours, out.plan.out_dir.c_str(), next.c_str());
+      if (stage.last)
+        return 0;
+      out.counted_only = true;
+      return std::nullopt;
     }
-    options.tally->cpu_hours += cost.cpu_hours * fresh / cost.particle_steps;
-  }
-  if (options.dry_run && !finished_stage) {
-    std::printf(
-        "%s --preset %s: %zu points x %lld replicas = %zu runs, %.3g particle force "
-        "evaluations, about %.3g CPU-hours (40 ns each; CVODE counted as 4 per tau_0) "
-        "-> %s%s\n",
-        what.c_str(), options.preset.c_str(), out.plan.points.size(),
-        static_cast<long long>(out.plan.replicas), cost.tasks, cost.particle_steps, cost.cpu_hours,
-        out.plan.out_dir.c_str(), next.c_str());
-    if (stage.last)
-      return 0;
-    out.counted_only = true;
-    return std::nullopt;
   }
   if (options.slurm && !finished_stage) {
     sweep::SlurmOptions so;

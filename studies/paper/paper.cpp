@@ -212,8 +212,10 @@ int run(const StudyOptions& options) {
     std::printf(
         "study paper --preset %s: %zu distinct runs, about %.3g CPU-hours (40 ns per particle "
         "force evaluation; runs that studies share are counted once; a study in stages counts "
-        "every unfinished stage)\n",
-        options.preset.c_str(), tally.scenes.size(), tally.cpu_hours);
+        "every stage, those not yet written from stand-in start states); %zu finished, about %.3g "
+        "CPU-hours left\n",
+        options.preset.c_str(), tally.scenes.size(), tally.cpu_hours, tally.finished,
+        tally.cpu_hours_left);
     return worst;
   }
   std::ostringstream md;

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # `jamflow study paper` from the command line, without running the studies' points:
-#  - --dry-run counts the runs that studies share once (hard-sphere and finite-size share the
+#  - --dry-run counts the runs that studies share once, and on a new folder none finished (hard-sphere and finite-size share the
 #    N = 256 points of their quick presets), so its total is below the sum of the parts;
 #  - --slurm writes one batch script that runs the whole of it and resubmits itself;
 #  - --only with an unknown study, --only on another study, and an MPI launch are one line each,
@@ -29,6 +29,8 @@ else
   bad "dry-run: hard-sphere $hs, finite-size $fs, paper '$line'"
 fi
 [ ! -d dp/hard-sphere/runs/points ] && ok "dry-run runs nothing" || bad "dry-run created points"
+echo "$line" | grep -q "; 0 finished, about [0-9.e+-]* CPU-hours left" &&
+  ok "dry-run on a new folder: nothing finished" || bad "dry-run 'finished': '$line'"
 
 "$jamflow" study paper --preset paper --slurm --out sl -j 8 > slurm.out 2> slurm.err
 status=$?

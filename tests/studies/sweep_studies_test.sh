@@ -4,7 +4,8 @@
 #    report, the HDF5 file and the plots;
 #  - the analysis in the study is `jamflow analyze hard-sphere` on the collected table: the same
 #    JSON (or the same failure) as running analyze on that table by hand;
-#  - a rerun recomputes nothing; --dry-run of every preset gives a point count and CPU-hours;
+#  - a rerun recomputes nothing, and --dry-run then counts every run finished and nothing
+#    left; --dry-run of every preset gives a point count and CPU-hours;
 #  - the studies in stages (timestep, stability, softness, ensemble) count every stage with
 #    --dry-run and write the first stage's job array with --slurm.
 #  - soft-rheology and olsson-teitel (quick) write their report, HDF5 file and figures, and
@@ -55,6 +56,12 @@ PY
   "$jamflow" study "$study" --preset quick --out "$out" -j 2 --no-plots > /dev/null 2> rerun.err
   grep -q "done (.* from before), 0 running, 0 failed, 0 waiting" rerun.err &&
     ok "$study: rerun recomputes nothing" || bad "$study: rerun: $(grep sweep rerun.err | tail -1)"
+  # --dry-run on the finished folder counts every run as finished, and nothing left.
+  line=$("$jamflow" study "$study" --preset quick --dry-run --out "$out")
+  runs=$(echo "$line" | sed -n 's/.* = \([0-9]*\) runs,.*/\1/p')
+  echo "$line" | grep -q "; $runs finished, about 0 CPU-hours left" &&
+    ok "$study: dry-run after the run: $runs finished, nothing left" ||
+    bad "$study: dry-run after the run: $line"
 done
 
 # The soft-rheology and olsson-teitel studies: the sweep(s), the report, the figures, and the
