@@ -64,6 +64,21 @@ std::string headline(const fs::path& report) {
   return first == std::string::npos ? std::string() : out.substr(first);
 }
 
+// A study's figures (its folder's PNG files), as images linked relative to the paper report.
+std::string figures(const fs::path& dir) {
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (e.is_regular_file() && e.path().extension() == ".png")
+      names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  std::string md;
+  for (const auto& n : names)
+    md += "\n![" + dir.filename().string() + ": " + n + "](" + dir.filename().string() + "/" + n +
+          ")\n";
+  return md;
+}
+
 // Table 2 beside jamflow's N -> infinity values (finite-size/analysis.json).
 std::string table2_section(const fs::path& analysis) {
   struct Seed {
@@ -206,7 +221,7 @@ int run(const StudyOptions& options) {
                                              std::string(part.study) + "/report.md)"
                                        : "-"});
     if (fs::exists(report))
-      headlines << "\n### " << part.study << "\n\n" << headline(report) << "\n";
+      headlines << "\n### " << part.study << "\n\n" << headline(report) << "\n" << figures(dir);
   }
   if (options.dry_run) {
     std::printf(
