@@ -191,6 +191,11 @@ struct CaseResult {
   std::vector<IntegratorSetting> settings;
   std::vector<DiagnosedRun> runs;
   double largest_stable_dt = std::nan("");
+  // The largest Euler dt below the first unstable one that ran to its end without oscillating,
+  // counting runs that their verdicts leave out (not steady, blocks shorter than 2 tau): what the
+  // classification says, but not a conclusion unless largest_stable_dt says the same.
+  double largest_held_dt = std::nan("");
+  std::size_t held_left_out = 0;  // such runs left out by their verdicts
   double first_unstable_dt = std::nan("");
   std::string first_unstable_verdict;
   bool any_lanes = false;
@@ -229,6 +234,18 @@ std::string case_table(const CaseResult& cr) {
       rows);
 }
 
+// The summary's "largest stable dt": the verdicts' value, or why there is none.
+std::string largest_stable_cell(const CaseResult& cr) {
+  std::string cell = std::isfinite(cr.largest_stable_dt) ? short_num(cr.largest_stable_dt) : "";
+  if (!std::isfinite(cr.largest_held_dt))
+    return cell.empty() ? "< " + short_num(cr.settings.front().dt) : cell;
+  if (cr.largest_held_dt == cr.largest_stable_dt && cr.held_left_out == 0)
+    return cell;
+  const std::string held = "no oscillation up to " + short_num(cr.largest_held_dt) + ", but " +
+                           std::to_string(cr.held_left_out) + " of those runs left out";
+  return cell.empty() ? "not established (" + held + ")" : cell + " (" + held + ")";
+}
+
 void summarize_case(CaseResult& cr) {
   // Euler rows only, in increasing dt: the largest dt below which every run is stable.
   std::vector<std::pair<double, const DiagnosedRun*>> euler;
@@ -243,6 +260,10 @@ void summarize_case(CaseResult& cr) {
   for (const auto& [dt, r] : euler) {
     if (r->cls.verdict == Verdict::kStable) {
       cr.largest_stable_dt = dt;
+      cr.largest_held_dt = dt;
+    } else if (r->cls.verdict == Verdict::kCorrelated || r->cls.verdict == Verdict::kNotSteady) {
+      cr.largest_held_dt = dt;
+      ++cr.held_left_out;
     } else if (r->cls.verdict == Verdict::kOscillating || r->cls.verdict == Verdict::kDiverged) {
       cr.first_unstable_dt = dt;
       cr.first_unstable_verdict = r->verdict_text();
@@ -501,6 +522,8 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
       w.attr(grp, "xi_V", cr.c.point.xi_v);
       w.attr(grp, "gdot", cr.c.point.gdot);
       w.attr(grp, "largest_stable_dt", cr.largest_stable_dt);
+      w.attr(grp, "largest_dt_without_oscillation", cr.largest_held_dt);
+      w.attr(grp, "runs_without_oscillation_left_out", std::int64_t(cr.held_left_out));
       w.attr(grp, "first_unstable_dt", cr.first_unstable_dt);
       w.attr(grp, "first_unstable_verdict", cr.first_unstable_verdict);
       w.attr(grp, "lanes", static_cast<std::int64_t>(cr.any_lanes));
@@ -540,10 +563,7 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
   for (const auto& cr : results) {
     if (cr.c.respa_size)
       continue;
-    summary_rows.push_back({cr.c.name, cr.c.point.describe(),
-                            std::isfinite(cr.largest_stable_dt)
-                                ? short_num(cr.largest_stable_dt)
-                                : "< " + short_num(cr.settings.front().dt),
+    summary_rows.push_back({cr.c.name, cr.c.point.describe(), largest_stable_cell(cr),
                             std::isfinite(cr.first_unstable_dt)
                                 ? short_num(cr.first_unstable_dt) + ": " + cr.first_unstable_verdict
                                 : "none in scan",
@@ -582,10 +602,18 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
       md += "preparation failed: " + cr.prep.verdict_text() + ".\n";
       continue;
     }
-    md += std::isfinite(cr.largest_stable_dt)
-              ? "Euler stable up to dt = " + short_num(cr.largest_stable_dt)
-              : "Euler unstable at every scanned dt (smallest " +
-                    short_num(cr.settings.front().dt) + ")";
+    if (std::isfinite(cr.largest_stable_dt))
+      md += "Euler stable up to dt = " + short_num(cr.largest_stable_dt);
+    else if (std::isfinite(cr.largest_held_dt))
+      md += "Euler's stable range is not established: no run oscillates up to dt = " +
+            short_num(cr.largest_held_dt) + ", but those runs are left out by their verdicts";
+    else
+      md +=
+          "Euler unstable at every scanned dt (smallest " + short_num(cr.settings.front().dt) + ")";
+    if (std::isfinite(cr.largest_stable_dt) && cr.held_left_out > 0)
+      md += " (" + std::to_string(cr.held_left_out) +
+            " runs that do not oscillate are left out by their verdicts; the largest such dt is " +
+            short_num(cr.largest_held_dt) + ")";
     if (std::isfinite(cr.first_unstable_dt))
       md += "; at dt = " + short_num(cr.first_unstable_dt) + ": " + cr.first_unstable_verdict;
     md += cr.any_lanes ? "; lanes detected." : "; no lanes detected.";

@@ -75,6 +75,19 @@ TEST(StabilityStudy, TinyQuickPreset) {
     EXPECT_DOUBLE_EQ(largest, 0.05);
   else
     EXPECT_TRUE(std::isnan(largest)) << largest;
+  // Either way dt = 0.05 ran to its end without oscillating; when its verdicts leave it out,
+  // the report says the stable range is not established instead of calling Euler unstable.
+  EXPECT_DOUBLE_EQ(r.attr_double("/cases/c00", "largest_dt_without_oscillation"), 0.05);
+  EXPECT_EQ(r.attr_int("/cases/c00", "runs_without_oscillation_left_out"),
+            verdict[0.05] == "stable" ? 0 : 1);
+  {
+    std::ifstream in(dir + "/report.md");
+    const std::string md((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(md.find("Euler unstable at every scanned dt"), std::string::npos);
+    if (verdict[0.05] != "stable") {
+      EXPECT_NE(md.find("not established (no oscillation up to 0.05"), std::string::npos);
+    }
+  }
   EXPECT_DOUBLE_EQ(r.attr_double("/cases/c00", "first_unstable_dt"), 1.5);
 }
 
