@@ -312,6 +312,13 @@ Classification classify(const ReplicaResult& result, const EnergyBalance& balanc
     c.reason = result.status.substr(result.status.find(':') + 2) + ", the study's budget";
     return c;
   }
+  // Stopped by a signal with its checkpoint kept: not finished yet, which says nothing about
+  // stability (the same command again continues it).
+  if (result.status.rfind("interrupted", 0) == 0) {
+    c.verdict = Verdict::kIncomplete;
+    c.reason = "not finished: " + result.status + "; the same command again continues it";
+    return c;
+  }
   if (result.status != "complete") {
     c.verdict = Verdict::kDiverged;
     c.reason = result.status;

@@ -198,6 +198,12 @@ TEST(Diagnostics, Classification) {
   ReplicaResult failed = r;
   failed.status = "failed at t = 12: forces became non-finite";
   EXPECT_EQ(classify(failed, eb, &w, {}).verdict, Verdict::kDiverged);
+  // Stopped by a signal with its checkpoint kept: unfinished, not diverged.
+  ReplicaResult interrupted = r;
+  interrupted.status = "interrupted at t = 2285.46 by SIGTERM";
+  const Classification unfinished = classify(interrupted, eb, &w, {});
+  EXPECT_EQ(unfinished.verdict, Verdict::kIncomplete);
+  EXPECT_NE(unfinished.reason.find("not finished"), std::string::npos);
   w.status = "failed at step 3: cell volume became -1";
   EXPECT_EQ(classify(r, eb, &w, {}).verdict, Verdict::kDiverged);
 }
