@@ -6,6 +6,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "lib/h5.hpp"
 #include "studies/common.hpp"
 
 namespace jamflow::studies {
@@ -59,13 +60,24 @@ double points_cpu_hours(const std::string& dir) {
   std::error_code ec;
   for (auto it = fs::recursive_directory_iterator(dir, ec);
        !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
-    if (it->path().filename() != "table.csv")
+    const fs::path& p = it->path();
+    const std::string name = p.filename().string();
+    if (name.size() < 5 || name[0] != 'r' || p.extension() != ".h5" ||
+        name.find_first_not_of("0123456789", 1) != name.size() - 3 ||
+        p.parent_path().parent_path().filename() != "points")
       continue;
-    const Table t = read_table(it->path().string());
-    for (std::size_t r = 0; r < t.rows.size(); ++r) {
-      const double w = t.number(r, "wall_seconds");
-      if (std::isfinite(w))
-        seconds += w;
+    try {
+      const H5Reader h5(p.string());
+      if (h5.has_attr("/summary", "wall_seconds")) {
+        seconds += h5.attr_double("/summary", "wall_seconds");
+        continue;
+      }
+      // A run stopped by its budget may have no summary: its last checkpoint's time.
+      const std::string ck = "/checkpoint/replicas/" + name.substr(1, name.size() - 4);
+      if (h5.exists(ck) && h5.has_attr(ck, "wall_seconds"))
+        seconds += h5.attr_double(ck, "wall_seconds");
+    } catch (const std::exception&) {
+      // not a run file of the engine: nothing to count
     }
   }
   return seconds / 3600.0;

@@ -22,8 +22,9 @@ struct Table {
 Table read_table(const std::string& path);  // an empty table if the file is absent
 std::string read_file(const std::string& path);
 
-// The CPU-hours of the points under `dir`: the wall_seconds column (each replica one thread,
-// summed over replicas) of every collected table.csv below it.
+// The CPU-hours of the runs under `dir`: the wall seconds (one thread each) of every finished
+// run file of the sweep engine below it (`.../runs/points/<point>/r<k>.h5`), in every stage of
+// a study in stages too; a run stopped by its budget counts, an unfinished `.part` does not.
 double points_cpu_hours(const std::string& dir);
 
 // A report's cost line: the points' measured hours under `dir` against the estimate, and this

@@ -5,9 +5,9 @@
 #  - --slurm writes one batch script that runs the whole of it and resubmits itself;
 #  - --only with an unknown study, --only on another study, and an MPI launch are one line each,
 #    exit 2, before anything runs.
-#  - end to end on two quick studies that share points: each shared point runs once, the report
-#    has a row per study, Table 2's section and each study's figures, and a --dry-run after it
-#    finds every run finished and nothing left.
+#  - end to end on three quick studies, two of which share points and one in stages: each shared
+#    point runs once, the report has a row per study with its CPU hours, Table 2's section and
+#    each study's figures, and a --dry-run after it finds every run finished and nothing left.
 # usage: paper_test.sh JAMFLOW_BINARY
 set -uo pipefail
 jamflow="$(realpath "$1")"
@@ -34,10 +34,11 @@ fi
 echo "$line" | grep -q "; 0 finished, about [0-9.e+-]* CPU-hours left" &&
   ok "dry-run on a new folder: nothing finished" || bad "dry-run 'finished': '$line'"
 
-"$jamflow" study paper --preset quick --only hard-sphere,finite-size --out e2e -j 2 > e2e.out 2> e2e.err
+"$jamflow" study paper --preset quick --only ensemble,hard-sphere,finite-size --out e2e -j 2 \
+  > e2e.out 2> e2e.err
 status=$?
 # 1: the quick presets' tiny systems leave parts of the analysis unfitted, and the report says so.
-[ "$status" -le 1 ] && ok "paper (quick, two studies) ran (exit $status)" ||
+[ "$status" -le 1 ] && ok "paper (quick, three studies) ran (exit $status)" ||
   bad "paper end to end: exit $status: $(tail -2 e2e.err)"
 reused=$(grep -l "reused" e2e/finite-size/runs/points/*/r*.log 2>/dev/null | wc -l)
 [ "$reused" -ge 1 ] && ok "finite-size reused $reused runs of hard-sphere" ||
@@ -49,12 +50,17 @@ if [ -s e2e/report.md ] && grep -q "^| Figs. 2, 3, 4, 7: .* | hard-sphere |" e2e
 else
   bad "report.md: $(head -c 600 e2e/report.md 2>/dev/null)"
 fi
+# The CPU hours of each part, a study in stages (ensemble) included: the runs' own wall seconds.
+hours=$(sed -n 's/^| .* | \(ensemble\|hard-sphere\|finite-size\) | .* | \([0-9.e+-]*\) | \[.*$/\1=\2/p' e2e/report.md)
+nonzero=$(echo "$hours" | awk -F= '$2 > 0' | wc -l)
+[ "$nonzero" -eq 3 ] && ok "every part's CPU hours are counted: $(echo $hours)" ||
+  bad "CPU hours per part: '$(echo $hours)'"
 figs=$(sed -n 's/^!\[.*\](\(.*\.png\))$/\1/p' e2e/report.md)
 missing=0
 for f in $figs; do [ -s "e2e/$f" ] || missing=$((missing + 1)); done
 [ -n "$figs" ] && [ "$missing" -eq 0 ] && ok "the report shows $(echo "$figs" | wc -l) figures, all present" ||
   bad "report figures: '$figs', $missing missing"
-line=$("$jamflow" study paper --preset quick --only hard-sphere,finite-size --dry-run --out e2e)
+line=$("$jamflow" study paper --preset quick --only ensemble,hard-sphere,finite-size --dry-run --out e2e)
 runs=$(echo "$line" | sed -n 's/.*: \([0-9]*\) distinct runs.*/\1/p')
 echo "$line" | grep -q "; $runs finished, about 0 CPU-hours left" &&
   ok "dry-run after the run: $runs finished, nothing left" || bad "dry-run after the run: $line"
