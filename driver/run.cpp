@@ -841,6 +841,7 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   std::vector<double> before;
   if (from)
     res.steps = from->steps;
+  const double t_begin = model.state().time;
   try {
     if (!from) {
       record(0.0);
@@ -902,6 +903,14 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
       progress.finish();
   } catch (const IntegrationError& e) {
     res.status = "failed at t = " + fmt(model.state().time - t_start) + ": " + e.what();
+  } catch (const ConfigError& e) {
+    // The scene was valid when the run started; a state that has since left the range the
+    // engine accepts (a piston that collapsed the box below the neighbour list's cell) is a
+    // failure of the run, recorded in its .part like any other, not bad input.
+    if (!(model.state().time > t_begin))
+      throw;
+    res.status = "failed at t = " + fmt(model.state().time - t_start) +
+                 ": the state left the engine's range: " + e.what();
   }
   fill(res);
   res.integrator_stats.emplace_back("force_evaluations", double(model.force_evaluations()));

@@ -165,6 +165,32 @@ TEST(Run, DivergingRunKeepsOnlyAPartialFileThatSaysSo) {
   EXPECT_GE(h.read_doubles("/timeseries/time").size(), 1u);  // what was computed is kept
 }
 
+// A piston that compresses the box until it is narrower than twice the neighbour list's reach:
+// the list then refuses the state (a ConfigError, which before the run means bad input). After
+// the run has started it is the run's failure: exit 1 (not 2, bad input), and a .part whose
+// status says so, so that a sweep records it as failed instead of rerunning it.
+TEST(Run, BoxCollapsingBelowTheListCellIsAFailedRun) {
+  TempDir dir;
+  const std::string out = dir.file("collapse.h5");
+  std::string text = scene_text(64, 0.3, 1e-3, 0.01, 1.0, 20.0);
+  const std::string nvt = "kind = \"constant_volume\"";
+  text.replace(text.find(nvt), nvt.size(),
+               "kind = \"constant_pressure\"\npressure = 10.0\nxi_V = 1.0");
+  RunSpec spec = spec_of(text, {"output.file=\"" + out + "\""});
+  RunOptions opt;
+  opt.quiet = true;
+  testing::internal::CaptureStderr();
+  EXPECT_EQ(run_and_write(spec, opt), 1);
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("cell too small"), std::string::npos) << err;
+  EXPECT_FALSE(fs::exists(out));
+  ASSERT_TRUE(fs::exists(out + ".part"));
+  H5Reader h(out + ".part");
+  const std::string status = h.attr_string("/", "status");
+  EXPECT_EQ(status.rfind("failed at t = ", 0), 0u) << status;
+  EXPECT_NE(status.find("cell too small"), std::string::npos) << status;
+}
+
 // [run] max_force_evaluations: the run stops at the first sample at which its force evaluations
 // reach the budget (a count: the same sample on every machine), and its file is final, not a
 // checkpoint, with the status saying where it stopped and no summary.
