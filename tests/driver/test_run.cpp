@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <string>
+#include <utility>
 
 #include "driver/checkpoint.hpp"
 #include "driver/run.hpp"
@@ -140,6 +142,25 @@ TEST(Run, WritesTheDocumentedHdf5Layout) {
   EXPECT_NEAR(fin.box.strain, 25e-3, 1e-12);
 }
 
+// The scene at constant pressure P with piston friction xi_V instead of constant volume.
+std::string with_piston(std::string text, double pressure, double xi_v) {
+  const std::string nvt = "kind = \"constant_volume\"";
+  text.replace(text.find(nvt), nvt.size(),
+               "kind = \"constant_pressure\"\npressure = " + std::to_string(pressure) +
+                   "\nxi_V = " + std::to_string(xi_v));
+  return text;
+}
+
+// run_and_write of the scene into `out`, quietly: its exit status and what it wrote to stderr.
+std::pair<int, std::string> run_quietly(const std::string& text, const std::string& out) {
+  const RunSpec spec = spec_of(text, {"output.file=\"" + out + "\""});
+  RunOptions opt;
+  opt.quiet = true;
+  testing::internal::CaptureStderr();
+  const int rc = run_and_write(spec, opt);
+  return {rc, testing::internal::GetCapturedStderr()};
+}
+
 TEST(Run, DivergingRunKeepsOnlyAPartialFileThatSaysSo) {
   TempDir dir;
   const std::string out = dir.file("bad.h5");
@@ -147,16 +168,9 @@ TEST(Run, DivergingRunKeepsOnlyAPartialFileThatSaysSo) {
   // for dV = -1e5 dt, so the first step of dt = 1 would make the volume negative. (Explicit
   // Euler at a huge dt on the particles alone does not go non-finite: the contact forces have
   // compact support, so unstable modes scatter particles instead of growing without bound.)
-  std::string text = scene_text(200, 0.6, 1e-3, 1.0, 20.0, 40.0);
-  const std::string nvt = "kind = \"constant_volume\"";
-  text.replace(text.find(nvt), nvt.size(),
-               "kind = \"constant_pressure\"\npressure = 0.1\nxi_V = 1e-6");
-  RunSpec spec = spec_of(text, {"output.file=\"" + out + "\""});
-  RunOptions opt;
-  opt.quiet = true;
-  testing::internal::CaptureStderr();
-  EXPECT_EQ(run_and_write(spec, opt), 1);
-  const std::string err = testing::internal::GetCapturedStderr();
+  const auto [rc, err] =
+      run_quietly(with_piston(scene_text(200, 0.6, 1e-3, 1.0, 20.0, 40.0), 0.1, 1e-6), out);
+  EXPECT_EQ(rc, 1);
   EXPECT_NE(err.find("volume became"), std::string::npos) << err;
   EXPECT_FALSE(fs::exists(out));
   ASSERT_TRUE(fs::exists(out + ".part"));
@@ -172,16 +186,9 @@ TEST(Run, DivergingRunKeepsOnlyAPartialFileThatSaysSo) {
 TEST(Run, BoxCollapsingBelowTheListCellIsAFailedRun) {
   TempDir dir;
   const std::string out = dir.file("collapse.h5");
-  std::string text = scene_text(64, 0.3, 1e-3, 0.01, 1.0, 20.0);
-  const std::string nvt = "kind = \"constant_volume\"";
-  text.replace(text.find(nvt), nvt.size(),
-               "kind = \"constant_pressure\"\npressure = 10.0\nxi_V = 1.0");
-  RunSpec spec = spec_of(text, {"output.file=\"" + out + "\""});
-  RunOptions opt;
-  opt.quiet = true;
-  testing::internal::CaptureStderr();
-  EXPECT_EQ(run_and_write(spec, opt), 1);
-  const std::string err = testing::internal::GetCapturedStderr();
+  const auto [rc, err] =
+      run_quietly(with_piston(scene_text(64, 0.3, 1e-3, 0.01, 1.0, 20.0), 10.0, 1.0), out);
+  EXPECT_EQ(rc, 1);
   EXPECT_NE(err.find("cell too small"), std::string::npos) << err;
   EXPECT_FALSE(fs::exists(out));
   ASSERT_TRUE(fs::exists(out + ".part"));
