@@ -6,8 +6,10 @@
 #include <fstream>
 #include <sstream>
 
-#include "lib/h5.hpp"
+#include "driver/checkpoint.hpp"
 #include "studies/common.hpp"
+#include "sweep/execute.hpp"
+#include "sweep/plan.hpp"
 
 namespace jamflow::studies {
 
@@ -60,24 +62,20 @@ double points_cpu_hours(const std::string& dir) {
   std::error_code ec;
   for (auto it = fs::recursive_directory_iterator(dir, ec);
        !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
-    const fs::path& p = it->path();
-    const std::string name = p.filename().string();
-    if (name.size() < 5 || name[0] != 'r' || p.extension() != ".h5" ||
-        name.find_first_not_of("0123456789", 1) != name.size() - 3 ||
-        p.parent_path().parent_path().filename() != "points")
+    if (it->path().filename() != "sweep.toml")
       continue;
+    // Each sweep of a study (a stage, or the study itself) runs into runs/ beside its file.
     try {
-      const H5Reader h5(p.string());
-      if (h5.has_attr("/summary", "wall_seconds")) {
-        seconds += h5.attr_double("/summary", "wall_seconds");
-        continue;
+      const sweep::Plan plan =
+          sweep::load_plan(it->path().string(), (it->path().parent_path() / "runs").string());
+      for (const auto& t : plan.tasks()) {
+        if (sweep::probe(plan, t) != sweep::TaskState::kDone)
+          continue;
+        for (const auto& r : read_run_file(plan.task_file(t), false).replicas)
+          seconds += r.wall_seconds;
       }
-      // A run stopped by its budget may have no summary: its last checkpoint's time.
-      const std::string ck = "/checkpoint/replicas/" + name.substr(1, name.size() - 4);
-      if (h5.exists(ck) && h5.has_attr(ck, "wall_seconds"))
-        seconds += h5.attr_double(ck, "wall_seconds");
     } catch (const std::exception&) {
-      // not a run file of the engine: nothing to count
+      // a sweep file that no longer loads, or a run file that cannot be read: nothing to count
     }
   }
   return seconds / 3600.0;

@@ -23,8 +23,8 @@ Table read_table(const std::string& path);  // an empty table if the file is abs
 std::string read_file(const std::string& path);
 
 // The CPU-hours of the runs under `dir`: the wall seconds (one thread each) of every finished
-// run file of the sweep engine below it (`.../runs/points/<point>/r<k>.h5`), in every stage of
-// a study in stages too; a run stopped by its budget counts, an unfinished `.part` does not.
+// run of every sweep below it (each `sweep.toml` with its `runs/`: every stage of a study in
+// stages too); a run stopped by its budget counts, an unfinished one does not.
 double points_cpu_hours(const std::string& dir);
 
 // A report's cost line: the points' measured hours under `dir` against the estimate, and this
