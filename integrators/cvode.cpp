@@ -51,294 +51,6 @@ double cvode_default_atol(double pressure, double alpha) {
 }
 
 // ---------------------------------------------------------------------------------------
-// The ODE system
-
-namespace {
-// |s - s_ref| beyond this many box lengths is a runaway trial iterate, not a displacement.
-constexpr double kMaxShift = 1e6;
-
-// The piston shrank the cell below what the neighbour list supports. Only the piston moves
-// V, and a cell this small stays too small for every smaller step, so CVODE must not retry
-// (it crept on for 1e6 steps when this was recoverable): unrecoverable, unlike its base.
-class CellCollapse : public IntegrationError {
- public:
-  using IntegrationError::IntegrationError;
-};
-}  // namespace
-
-CvodeSystem::CvodeSystem(Model& model, const Ensemble& ensemble, bool symmetric_jacobian)
-    : model_(model),
-      ensemble_(ensemble),
-      n_(model.state().size()),
-      piston_(ensemble.has_piston()),
-      symmetric_(symmetric_jacobian),
-      gdot_(ensemble.shear_rate()) {
-  const State& st = model.state();
-  box_ref_ = st.box;
-  t_ref_ = st.time;
-  strain_ref_ = st.box.strain;
-  v_ref_ = st.box.volume();
-  l_ref_ = std::cbrt(v_ref_);
-  s_ref_ = st.pos;
-  ds_.assign(3 * n_, 0.0);
-  if (piston_) {
-    // volume_rate is affine in P_hat for the piston; its slope is 1 / xi_V.
-    rate_slope_ = ensemble.volume_rate(1.0) - ensemble.volume_rate(0.0);
-  }
-}
-
-Box CvodeSystem::box_at(double t, double v) const {
-  Box b = box_ref_;
-  b.strain = strain_ref_ + gdot_ * (t - t_ref_);
-  if (v != v_ref_) {
-    const double c = std::cbrt(v / v_ref_);
-    b.lx *= c;
-    b.ly *= c;
-    b.lz *= c;
-  }
-  return b;
-}
-
-void CvodeSystem::apply(double t, const double* y) {
-  double v = v_ref_;
-  if (piston_) {
-    const double w = y[3 * n_];
-    v = v_ref_ * (1.0 + w);
-    if (!(1.0 + w > 0.0) || !std::isfinite(v)) {
-      throw IntegrationError("trial cell volume " + fmt(v) + " at t = " + fmt(t) + " (reference " +
-                             fmt(v_ref_) + ")");
-    }
-  }
-  // s = s_ref + l_ref h_ref(t)^-1 u, with h_ref(t) the reference cell sheared to time t.
-  const double tilt = box_at(t, v_ref_).tilt();
-  const double ax = l_ref_ / box_ref_.lx, ay = l_ref_ / box_ref_.ly, az = l_ref_ / box_ref_.lz;
-  const double* ux = y;
-  const double* uy = y + n_;
-  const double* uz = y + 2 * n_;
-  double* dx = ds_.data();
-  double* dy = dx + n_;
-  double* dz = dx + 2 * n_;
-  double worst = 0.0;
-  for (std::size_t i = 0; i < n_; ++i) {
-    dx[i] = ax * (ux[i] - tilt * uy[i]);
-    dy[i] = ay * uy[i];
-    dz[i] = az * uz[i];
-    worst = std::max({worst, std::abs(dx[i]), std::abs(dy[i]), std::abs(dz[i])});
-  }
-  // NaN never wins std::max, so test the inputs too.
-  if (!(worst < kMaxShift) || !Eigen::Map<const Eigen::VectorXd>(y, size()).allFinite()) {
-    throw IntegrationError("trial particle displacement is non-finite or runaway (" + fmt(worst) +
-                           " box lengths) at t = " + fmt(t));
-  }
-
-  model_.modify([&](State& w) {
-    for (std::size_t k = 0; k < 3 * n_; ++k)
-      w.pos[k] = s_ref_[k] + ds_[k];
-    w.box = box_at(t, v);
-    w.time = t;
-  });
-  const State& st = model_.state();
-  have_last_ = false;
-  jacobian_at_last_ = false;
-
-  // A list rebuild wraps the state's scaled coordinates by integers; fold them into s_ref so
-  // that the next write continues from the wrapped state (forces are periodic, y unchanged).
-  const std::size_t builds = model_.list_builds();
-  const auto fold = [&] {
-    if (model_.list_builds() == builds)
-      return;
-    for (std::size_t k = 0; k < 3 * n_; ++k) {
-      const double shift = std::nearbyint(s_ref_[k] + ds_[k] - st.pos[k]);
-      if (shift != 0.0)
-        s_ref_[k] -= shift;
-    }
-  };
-  try {
-    model_.evaluate();
-  } catch (const ConfigError& e) {
-    fold();
-    throw CellCollapse("cell volume " + fmt(st.box.volume()) + " at t = " + fmt(t) +
-                       " is too small for the neighbour list: " + e.what());
-  } catch (...) {
-    fold();
-    throw;
-  }
-  fold();
-  y_last_.assign(y, y + size());
-  t_last_ = t;
-  have_last_ = true;
-}
-
-void CvodeSystem::rhs(double t, const double* y, double* ydot) {
-  apply(t, y);
-  const Evaluation& ev = model_.evaluate();  // cached by apply()
-  const double scale = 1.0 / (std::cbrt(ev.volume) * kXiS);
-  Eigen::Map<Eigen::VectorXd> du(ydot, 3 * n_);
-  du = scale * Eigen::Map<const Eigen::VectorXd>(ev.forces.force.data(), 3 * n_);
-  // The sheared frame of u: d/dt (h(t)/l) = gdot e_x e_y^T (h/l).
-  du.head(n_) += gdot_ * Eigen::Map<const Eigen::VectorXd>(y + n_, n_);
-  if (piston_)
-    ydot[3 * n_] = ensemble_.volume_rate(ev.pressure) / v_ref_;
-}
-
-template <class Pair>
-void CvodeSystem::collect_contacts(const Pair& pair) {
-  const State& st = model_.state();
-  const NeighbourList& list = model_.neighbour_list();
-  const Evaluation& ev = model_.evaluate();
-  const Eigen::Matrix3d h = st.box.h();
-  const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
-  const auto& shift = NeighbourList::shifts();
-  const std::uint32_t* start = list.start().data();
-  const std::uint32_t* entries = list.entries().data();
-  const double* sx = st.x();
-  const double* sy = st.y();
-  const double* sz = st.z();
-  const double* d = st.diameter.data();
-  const std::size_t n = n_;
-
-  contacts_.clear();
-  normal_block_.assign(6 * n, 0.0);
-  // g_i = sum_j U''(r_ij) r_ij: the force change under an affine dilation is -(dl/l) g.
-  std::vector<double> g(piston_ ? 3 * n : 0, 0.0);
-  double virial = 0.0, curvature = 0.0;  // sum r.f and sum U'' r^2 over contacts
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::uint32_t k = start[i]; k < start[i + 1]; ++k) {
-      const std::uint32_t e = entries[k];
-      const std::uint32_t j = e >> NeighbourList::kCodeBits;
-      const auto& sh = shift[e & NeighbourList::kCodeMask];
-      const double dx = sx[i] - sx[j] + sh[0];
-      const double dy = sy[i] - sy[j] + sh[1];
-      const double dz = sz[i] - sz[j] + sh[2];
-      const double rx = hxx * dx + hxy * dy, ry = hyy * dy, rz = hzz * dz;
-      const double r2 = rx * rx + ry * ry + rz * rz;
-      const double a = 0.5 * (d[i] + d[j]);
-      if (r2 >= a * a)
-        continue;
-      const double r = std::sqrt(r2);
-      const PairValue pv = pair(r, a);
-      const double kp = pair.stiffness(r, a);
-      const double nx = rx / r, ny = ry / r, nz = rz / r;
-      contacts_.push_back(Contact{std::uint32_t(i), j, nx, ny, nz, kp / kXiS, pv.f_over_r / kXiS});
-      const std::array<double, 6> nn{nx * nx, ny * ny, nz * nz, nx * ny, nx * nz, ny * nz};
-      for (int c = 0; c < 6; ++c) {
-        normal_block_[6 * i + c] += nn[c] * kp / kXiS;
-        normal_block_[6 * j + c] += nn[c] * kp / kXiS;
-      }
-      if (piston_) {
-        const double gr[3] = {kp * rx, kp * ry, kp * rz};
-        for (int c = 0; c < 3; ++c) {
-          g[c * n + i] += gr[c];
-          g[c * n + j] -= gr[c];
-        }
-        virial += pv.f_over_r * r2;
-        curvature += kp * r2;
-      }
-    }
-  }
-
-  if (piston_) {
-    // u fixed, w -> w + dw: every pair vector dilates by eps = dl/l = V_ref dw / (3 V).
-    //   d(du/dt)/dw = -(V_ref / 3V) (g + F) / (l xi_s)       (forces and the 1/l prefactor)
-    // w fixed, u -> u + du: dr_ij = l (du_i - du_j), d(r.f) = (f - U'' r).dr, dP = dW / 3V:
-    //   d(dw/dt)/du = rate_slope l (F - g) / (3 V V_ref)
-    // Affine dilation of the virial: dW/dV = (W - Q)/(3V), so dP/dV = -(2W + Q) / (9 V^2).
-    const double v = st.box.volume();
-    const double l = std::cbrt(v);
-    const double* f = ev.forces.force.data();
-    col_uw_.resize(3 * n);
-    row_wu_.resize(3 * n);
-    for (std::size_t k = 0; k < 3 * n; ++k) {
-      col_uw_[k] = -(v_ref_ / (3.0 * v)) * (g[k] + f[k]) / (l * kXiS);
-      row_wu_[k] = rate_slope_ * l * (f[k] - g[k]) / (3.0 * v * v_ref_);
-    }
-    j_ww_ = -rate_slope_ * (2.0 * virial + curvature) / (9.0 * v * v);
-  }
-}
-
-void CvodeSystem::jacobian_setup(double t, const double* y) {
-  const bool at_last = have_last_ && t == t_last_ && std::equal(y, y + size(), y_last_.begin());
-  if (jacobian_ready_ && at_last && jacobian_at_last_)
-    return;  // psetup and the first jtsetup of a step come at the same point
-  if (!at_last)
-    apply(t, y);
-  const double alpha = model_.force_field().alpha();
-  if (alpha == 2.0) {
-    collect_contacts(HarmonicPair{});
-  } else {
-    collect_contacts(PowerPair{alpha});
-  }
-  jacobian_ready_ = true;
-  jacobian_at_last_ = true;
-}
-
-void CvodeSystem::jacobian_times(const double* v, double* jv) const {
-  const std::size_t n = n_;
-  std::fill(jv, jv + size(), 0.0);
-  // -H v / xi_s over the contacts: K dv = U'' (n.dv) n - (f/r) (dv - (n.dv) n).
-  for (const Contact& c : contacts_) {
-    const double dvx = v[c.i] - v[c.j];
-    const double dvy = v[n + c.i] - v[n + c.j];
-    const double dvz = v[2 * n + c.i] - v[2 * n + c.j];
-    const double along = c.nx * dvx + c.ny * dvy + c.nz * dvz;
-    const double kx = (c.k_par + c.k_perp) * along * c.nx - c.k_perp * dvx;
-    const double ky = (c.k_par + c.k_perp) * along * c.ny - c.k_perp * dvy;
-    const double kz = (c.k_par + c.k_perp) * along * c.nz - c.k_perp * dvz;
-    jv[c.i] -= kx;
-    jv[n + c.i] -= ky;
-    jv[2 * n + c.i] -= kz;
-    jv[c.j] += kx;
-    jv[n + c.j] += ky;
-    jv[2 * n + c.j] += kz;
-  }
-  if (!symmetric_ && gdot_ != 0.0) {
-    for (std::size_t i = 0; i < n; ++i)
-      jv[i] += gdot_ * v[n + i];
-  }
-  if (piston_) {
-    const double vw = v[3 * n];
-    double coupling = 0.0;
-    if (!symmetric_) {
-      for (std::size_t k = 0; k < 3 * n; ++k) {
-        jv[k] += col_uw_[k] * vw;
-        coupling += row_wu_[k] * v[k];
-      }
-    }
-    jv[3 * n] = coupling + j_ww_ * vw;
-  }
-}
-
-void CvodeSystem::preconditioner_setup(double gamma) {
-  inv_block_.resize(9 * n_);
-  for (std::size_t i = 0; i < n_; ++i) {
-    const double* b = &normal_block_[6 * i];
-    Eigen::Matrix3d m;
-    m << 1.0 + gamma * b[0], gamma * b[3], gamma * b[4],  //
-        gamma * b[3], 1.0 + gamma * b[1], gamma * b[5],   //
-        gamma * b[4], gamma * b[5], 1.0 + gamma * b[2];
-    // I + gamma (positive semidefinite): symmetric positive definite, so invertible.
-    Eigen::Map<Eigen::Matrix3d> inv(&inv_block_[9 * i]);
-    inv = m.inverse();
-  }
-  const double p_ww = 1.0 - gamma * j_ww_;  // j_ww <= 0 for repulsive contacts
-  inv_ww_ = p_ww > 0.0 ? 1.0 / p_ww : 1.0;
-}
-
-void CvodeSystem::preconditioner_solve(const double* r, double* z) const {
-  const std::size_t n = n_;
-  for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Map<const Eigen::Matrix3d> inv(&inv_block_[9 * i]);
-    const Eigen::Vector3d ri(r[i], r[n + i], r[2 * n + i]);
-    const Eigen::Vector3d zi = inv * ri;
-    z[i] = zi[0];
-    z[n + i] = zi[1];
-    z[2 * n + i] = zi[2];
-  }
-  if (piston_)
-    z[3 * n] = inv_ww_ * r[3 * n];
-}
-
-// ---------------------------------------------------------------------------------------
 // SUNDIALS adapter
 
 namespace {
@@ -707,7 +419,7 @@ struct Cvode::Impl {
   CvodeMemPtr mem;
   std::size_t neq = 0;
 
-  std::unique_ptr<CvodeSystem> sys;
+  std::unique_ptr<EquationOfMotion> sys;
   const Model* model = nullptr;
   const Ensemble* ensemble = nullptr;
   bool need_init = true;
@@ -736,7 +448,7 @@ struct Cvode::Impl {
     long budget = 0;        // steps allowed in this stretch
     long taken = 0;         // steps taken in this stretch
     Model::Snapshot model;  // the Model before it was moved to the step's time
-    std::unique_ptr<CvodeSystem> sys;
+    std::unique_ptr<EquationOfMotion> sys;
   };
   std::optional<Paused> paused;
   // The t_end of the last advance() if the flag stopped it before t_end (else NaN): a call to
@@ -902,8 +614,8 @@ struct Cvode::Impl {
     if (mem)
       total += live;
     live = Counters{};
-    sys = std::make_unique<CvodeSystem>(model, ens,
-                                        opt.linear_solver == CvodeOptions::LinearSolver::kPcg);
+    sys = std::make_unique<EquationOfMotion>(model, ens,
+                                             opt.linear_solver == CvodeOptions::LinearSolver::kPcg);
     const double t0 = model.state().time;
     if (!mem || neq != sys->size()) {
       create(sys->size(), t0);
@@ -929,18 +641,7 @@ struct Cvode::Impl {
 
   // Time at which |tilt| passes 1/2, so that prepare_step() remaps (just past it).
   double remap_time(double t_now) const {
-    const double gdot = ensemble->shear_rate();
-    const Box b = sys->box_at(t_now, model->state().box.volume());
-    const double half = 0.5 * b.lx / b.ly;
-    double t = t_now + ((gdot > 0.0 ? half : -half) - b.tilt()) / gdot;
-    double bump = std::max(std::abs(t), 1.0) * std::numeric_limits<double>::epsilon();
-    for (int k = 0; k < 200; ++k) {
-      if (t > t_now && sys->box_at(t, b.volume()).remap_direction() != 0)
-        break;
-      t += bump;
-      bump *= 2.0;
-    }
-    return t;
+    return sys->remap_time(t_now, model->state().box.volume());
   }
 
   bool state_is_ours(const Model& m) const {
@@ -1104,7 +805,7 @@ void Cvode::advance(Model& model, const Ensemble& ensemble, double t_end) {
         p.budget = budget;
         p.taken = taken;
         p.model = model.snapshot();
-        p.sys = std::make_unique<CvodeSystem>(*im.sys);
+        p.sys = std::make_unique<EquationOfMotion>(*im.sys);
         im.sys->apply(t_ret, data(im.y.get()));
         im.paused = std::move(p);
         im.stopped_end = t_end;

@@ -1,23 +1,10 @@
 // CVODE (SUNDIALS 6.4): variable-order, variable-step BDF (or Adams) with Newton–Krylov
 // (SPGMR or PCG), behind the Integrator interface. Same equations as Euler (integrator.hpp).
 //
-// ODE state. y = [u (3N, SoA like State::pos), w (1, only with a piston)] with
-//   u = (h(t) / l) (s - s_ref),   w = V / V_ref - 1,   l = V^(1/3).
-// u is the non-affine displacement since the last (re)initialisation in real-space
-// directions, in units of the box length; s_ref, V_ref are the state at that time. The shear
-// (strain0 + gdot (t - t0)) is a known function of t, so it is not part of y. Then
-//   du/dt = F / (l xi_s) + gdot u_y e_x,    dw/dt = ensemble.volume_rate(P_hat) / V_ref,
-// and the piston is part of the ODE system. Because u is measured in box lengths along
-// real-space axes, an isotropic dilation does not move u, and the particle block of the
-// Jacobian is  -H / xi_s + gdot e_x e_y^T  with H the real-space energy Hessian: symmetric
-// up to O(gdot), which PCG needs. (Scaled coordinates would give -h^-1 H h / xi_s, which is
-// not symmetric in a tilted cell.) Starting y at zero keeps |y| of the order of the motion,
-// so rtol acts on displacements and volume changes, never on where the origin happens to be.
-//
-// Neighbour lists. Every right-hand side writes y into the Model's State and calls
-// Model::evaluate(), which rebuilds the list whenever its validity bound fails, so forces
-// are never computed from a stale list. A rebuild wraps State::pos by integers; the wrap is
-// folded into s_ref, so y stays continuous and the next write agrees with the list.
+// ODE system. The equation of motion of integrators/motion.hpp (EquationOfMotion): y is the
+// non-affine displacement since the last (re)initialisation plus, with a piston, the relative
+// volume; the piston is part of the ODE system, and every right-hand side keeps the neighbour
+// list valid.
 //
 // Discrete changes. advance() integrates in stretches and calls Model::prepare_step() before
 // each; it re-initialises CVODE (dropping its history, y = 0 at the current state) whenever
@@ -81,6 +68,7 @@
 #include <vector>
 
 #include "integrators/integrator.hpp"
+#include "integrators/motion.hpp"
 
 namespace jamflow {
 
@@ -106,69 +94,6 @@ double cvode_default_atol(double pressure, double alpha);
 // (Eigen replacements for Debian's unoptimised nvector_serial, see cvode.cpp) and the
 // library's own, over random vectors of length n, aliasing cases included.
 double cvode_kernel_discrepancy(std::size_t n, unsigned seed);
-
-// The ODE system of the header comment over a Model, without SUNDIALS types (the CVODE
-// callbacks forward here; tests call it directly). The reference is the Model's state at
-// construction. Methods that take y write it into the Model's State and evaluate forces;
-// physically impossible y (non-finite, V <= 0, runaway displacement) raise IntegrationError.
-class CvodeSystem {
- public:
-  CvodeSystem(Model& model, const Ensemble& ensemble, bool symmetric_jacobian);
-
-  std::size_t size() const { return 3 * n_ + (piston_ ? 1 : 0); }
-  bool has_piston() const { return piston_; }
-  double reference_time() const { return t_ref_; }
-
-  // Cell at time t and volume v (reference cell with the strain of time t, dilated to v).
-  Box box_at(double t, double v) const;
-  // Writes y at time t into the Model (positions, cell, time) and evaluates forces.
-  void apply(double t, const double* y);
-  // ydot = f(t, y).
-  void rhs(double t, const double* y, double* ydot);
-  // Jacobian data at (t, y) for jacobian_times and the preconditioner.
-  void jacobian_setup(double t, const double* y);
-  bool jacobian_ready() const { return jacobian_ready_; }
-  // jv = J v with the data of the last jacobian_setup.
-  void jacobian_times(const double* v, double* jv) const;
-  // Block-diagonal preconditioner P ~ I - gamma J (needs jacobian_setup first); z = P^-1 r.
-  void preconditioner_setup(double gamma);
-  void preconditioner_solve(const double* r, double* z) const;
-
- private:
-  struct Contact {
-    std::uint32_t i, j;
-    double nx, ny, nz;  // unit vector along r_ij
-    double k_par;       // U'' / xi_s
-    double k_perp;      // (f / r) / xi_s: the tension term -(f/r)(I - n n^T) of the Hessian
-  };
-  template <class Pair>
-  void collect_contacts(const Pair& pair);
-
-  Model& model_;
-  const Ensemble& ensemble_;
-  std::size_t n_;
-  bool piston_;
-  bool symmetric_;
-  double gdot_;
-  double rate_slope_ = 0.0;  // d volume_rate / d P_hat
-  Box box_ref_;
-  double t_ref_, strain_ref_, v_ref_, l_ref_;
-  std::vector<double> s_ref_;  // scaled positions at the reference, with wraps folded in
-  std::vector<double> ds_;     // scratch: s - s_ref of the last write
-  std::vector<double> y_last_;
-  double t_last_ = 0.0;
-  bool have_last_ = false;
-
-  bool jacobian_ready_ = false;
-  bool jacobian_at_last_ = false;  // the data belong to the last point written
-  std::vector<Contact> contacts_;
-  std::vector<double> normal_block_;  // 6 per particle: sum_j U'' n n^T / xi_s (xx yy zz xy xz yz)
-  std::vector<double> col_uw_;        // d(du/dt)/dw, 3N
-  std::vector<double> row_wu_;        // d(dw/dt)/du, 3N
-  double j_ww_ = 0.0;
-  std::vector<double> inv_block_;  // 9 per particle
-  double inv_ww_ = 1.0;
-};
 
 class Cvode final : public Integrator {
  public:

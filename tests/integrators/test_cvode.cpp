@@ -152,7 +152,7 @@ struct Dense {
 
 // J v against central differences of the right-hand side.
 void check_jacobian(Model& m, const Ensemble& ens, double tol) {
-  CvodeSystem sys(m, ens, false);
+  EquationOfMotion sys(m, ens, false);
   const std::size_t size = sys.size();
   std::mt19937_64 rng(3);
   std::normal_distribution<double> normal;
@@ -198,7 +198,7 @@ TEST(Cvode, JacobianTimesMatchesFiniteDifferences) {
 TEST(Cvode, JacobianParticleBlockIsTheHessianProduct) {
   Dense d(0.72);
   ConstantVolume nv(0.0);
-  CvodeSystem sys(d.model, nv, false);
+  EquationOfMotion sys(d.model, nv, false);
   std::vector<double> y(sys.size(), 0.0), v(sys.size()), jv(sys.size()), hv(sys.size());
   std::mt19937_64 rng(5);
   std::normal_distribution<double> normal;
@@ -506,7 +506,7 @@ TEST(Cvode, DISABLED_CostPerUnitTimeN1000) {
     // Stiffest relaxation rate: largest eigenvalue of H / xi_s (power iteration on -J). Explicit
     // Euler is stable for dt < 2 / lambda_max.
     ConstantVolume still(0.0);
-    CvodeSystem sys(base, still, true);
+    EquationOfMotion sys(base, still, true);
     std::vector<double> y(sys.size(), 0.0), v(sys.size(), 0.0), w(sys.size());
     std::mt19937_64 rng(1);
     std::normal_distribution<double> normal;
