@@ -50,6 +50,7 @@ const char* const kVolume = "kind = \"constant_volume\"";
 const char* const kPressure = "kind = \"constant_pressure\"\npressure = 0.01\nxi_V = 0.05";
 const char* const kEuler = "kind = \"euler\"\ndt = 0.05";
 const char* const kRespa = "kind = \"respa\"\ndt = 0.1\nn_inner = 2";
+const char* const kRkc = "kind = \"rkc\"\nrtol = 1e-3\natol = 1e-4";
 
 RunSpec spec_of(const std::string& text) {
   return parse_run_spec(Scene::parse(text, "test.toml"));
@@ -181,6 +182,13 @@ INSTANTIATE_TEST_SUITE_P(EulerAndRespa, Resume,
                                          Case{"euler_NP", kPressure, kEuler},
                                          Case{"respa_NV", kVolume, kRespa},
                                          Case{"respa_NP", kPressure, kRespa}),
+                         [](const auto& info) { return std::string(info.param.name); });
+
+// RKC carries its step proposal, error history and spectral radius between steps; they are
+// checkpointed exactly, so it too resumes bit for bit.
+INSTANTIATE_TEST_SUITE_P(Rkc, Resume,
+                         testing::Values(Case{"rkc_NV", kVolume, kRkc},
+                                         Case{"rkc_NP", kPressure, kRkc}),
                          [](const auto& info) { return std::string(info.param.name); });
 
 TEST(Resume, ExtendAppendsAndEqualsTheLongerRun) {

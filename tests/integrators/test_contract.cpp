@@ -57,6 +57,7 @@ const Config kConfigs[] = {
      "kind = \"respa\"\nn_inner = 3\ninner_scheme = \"heun\"\nouter_scheme = \"euler\"", 0.2},
     {"cvode", "cvode_bdf_spgmr", "kind = \"cvode\"", 1e-4, true},
     {"cvode", "cvode_bdf_pcg", "kind = \"cvode\"\nlinear_solver = \"pcg\"", 1e-4, true},
+    {"rkc", "rkc", "kind = \"rkc\"", 1e-4, true},
 };
 
 // The configurations of every registered kind (integrators/registry.hpp): those above, or for a
