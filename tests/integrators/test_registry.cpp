@@ -12,8 +12,8 @@
 namespace jamflow {
 namespace {
 
-TEST(IntegratorRegistry, HoldsExactlyEulerRespaCvode) {
-  EXPECT_EQ(integrator_kinds(), (std::vector<std::string>{"cvode", "euler", "respa"}));
+TEST(IntegratorRegistry, HoldsExactlyEulerRespaCvodeRkc) {
+  EXPECT_EQ(integrator_kinds(), (std::vector<std::string>{"cvode", "euler", "respa", "rkc"}));
   for (const IntegratorKind& k : registered_integrators()) {
     EXPECT_NE(k.factory, nullptr) << k.kind;
     EXPECT_FALSE(k.description.empty()) << k.kind;
@@ -23,7 +23,7 @@ TEST(IntegratorRegistry, HoldsExactlyEulerRespaCvode) {
 TEST(IntegratorRegistry, EachKindBuildsIntegratorOfThatName) {
   const Scene scene = Scene::parse(
       "[euler]\nkind = \"euler\"\ndt = 0.1\n[respa]\nkind = \"respa\"\ndt = 0.1\n"
-      "[cvode]\nkind = \"cvode\"\n",
+      "[cvode]\nkind = \"cvode\"\n[rkc]\nkind = \"rkc\"\n",
       "registry.toml");
   for (const std::string& kind : integrator_kinds()) {
     ConfigSection sec = scene.section(kind);
@@ -34,7 +34,7 @@ TEST(IntegratorRegistry, EachKindBuildsIntegratorOfThatName) {
 TEST(IntegratorRegistry, RegisteringAKindTwiceIsAnError) {
   EXPECT_THROW(register_integrator("euler", registered_integrators().front().factory, "again"),
                std::logic_error);
-  EXPECT_EQ(integrator_kinds().size(), 3u);
+  EXPECT_EQ(integrator_kinds().size(), 4u);
 }
 
 TEST(IntegratorRegistry, UnknownKindListsRegisteredKinds) {
@@ -43,7 +43,7 @@ TEST(IntegratorRegistry, UnknownKindListsRegisteredKinds) {
     make_integrator(s);
     FAIL() << "rk4 accepted";
   } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("allowed \"cvode\", \"euler\", \"respa\""),
+    EXPECT_NE(std::string(e.what()).find("allowed \"cvode\", \"euler\", \"respa\", \"rkc\""),
               std::string::npos)
         << e.what();
   }
