@@ -83,15 +83,40 @@ void EquationOfMotion::apply(double t, const double* y) {
   double* dx = ds_.data();
   double* dy = dx + n_;
   double* dz = dx + 2 * n_;
-  double worst = 0.0;
-  for (std::size_t i = 0; i < n_; ++i) {
+  const std::size_t n = n_;
+#pragma omp simd
+  for (std::size_t i = 0; i < n; ++i) {
     dx[i] = ax * (ux[i] - tilt * uy[i]);
     dy[i] = ay * uy[i];
     dz[i] = az * uz[i];
-    worst = std::max({worst, std::abs(dx[i]), std::abs(dy[i]), std::abs(dz[i])});
   }
-  // NaN never wins std::max, so test the inputs too.
-  if (!(worst < kMaxShift) || !Eigen::Map<const Eigen::VectorXd>(y, size()).allFinite()) {
+  // The largest |ds|, and the sum of all |ds|, which is finite only if every ds is (NaN never
+  // wins a max, but it poisons a sum). Vectorised reductions over eight lanes each, so that no
+  // single add chain sets the pace: with a branchy max over three values per particle, this
+  // check cost a fifth of an RKC stage at N = 1000.
+  constexpr std::size_t kLanes = 8;
+  double lane_max[kLanes] = {}, lane_sum[kLanes] = {};
+  const double* d = ds_.data();
+  const std::size_t m = 3 * n, whole = m - m % kLanes;
+  for (std::size_t k = 0; k < whole; k += kLanes) {
+#pragma omp simd
+    for (std::size_t l = 0; l < kLanes; ++l) {
+      const double a = std::abs(d[k + l]);
+      lane_max[l] = lane_max[l] > a ? lane_max[l] : a;
+      lane_sum[l] += a;
+    }
+  }
+  for (std::size_t k = whole; k < m; ++k) {
+    const double a = std::abs(d[k]);
+    lane_max[0] = lane_max[0] > a ? lane_max[0] : a;
+    lane_sum[0] += a;
+  }
+  double worst = 0.0, total = 0.0;
+  for (std::size_t l = 0; l < kLanes; ++l) {
+    worst = std::max(worst, lane_max[l]);
+    total += lane_sum[l];
+  }
+  if (!(worst < kMaxShift) || !std::isfinite(total)) {
     throw IntegrationError("trial particle displacement is non-finite or runaway (" + fmt(worst) +
                            " box lengths) at t = " + fmt(t));
   }
@@ -300,6 +325,7 @@ void EquationOfMotion::preconditioner_setup(double gamma) {
 
 void EquationOfMotion::preconditioner_solve(const double* r, double* z) const {
   const std::size_t n = n_;
+#pragma omp simd
   for (std::size_t i = 0; i < n; ++i) {
     const Eigen::Map<const Eigen::Matrix3d> inv(&inv_block_[9 * i]);
     const Eigen::Vector3d ri(r[i], r[n + i], r[2 * n + i]);
