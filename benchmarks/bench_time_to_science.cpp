@@ -117,7 +117,7 @@ int main(int argc, char** argv) {
       {"cvode rtol 1e-4", IntegratorSettings("cvode").set("rtol", 1e-4)},
       {"cvode rtol 1e-5", IntegratorSettings("cvode").set("rtol", 1e-5)},
   };
-  for (double a : {1e-3, 1e-2, 1e-1, 3e-1})
+  for (double a : {1e-3, 1e-2, 1e-1, 3e-1, 1.0})
     entries.push_back({"rkc atol " + std::to_string(a).substr(0, 5) + " delta",
                        IntegratorSettings("rkc").set("atol", a * delta)});
   std::printf("%-22s %12s %12s %10s %14s %11s %11s %11s\n", "integrator", "cpu_s/tau",

@@ -23,6 +23,13 @@ constexpr double kStageFactor = 1.54;
 // estimates differ by less than kDomEigTolerance relative.
 constexpr int kDomEigIterations = 50;
 constexpr double kDomEigTolerance = 0.01;
+// Step control: h_new = kSafety err^(-1/2) h. The local error of a smooth second-order step goes
+// as h^3, but near jamming the steps are limited by contacts that open and close within them,
+// where the force is not smooth, and the measured error grows about as h (h = 3.7, 5.8, 11 and
+// 27 gave err = 1.4, 2.0, 3.5 and 7.6). With the h^3 law (err^(-1/3), safety 0.8) and the RKC
+// code's predictive controller, 31% of steps were rejected at N = 1000, J = 0.1, P = 1e-5; with
+// err^(-1/2) and 0.7, 14%, and 22% fewer force passes per tau_0 (1.31 against 1.68).
+constexpr double kSafety = 0.7;
 // Rejections in a row that end the run: the step has shrunk by 0.1^kMaxRejections at least.
 constexpr int kMaxRejections = 60;
 
@@ -290,39 +297,28 @@ void Rkc::advance(Model& model, const Ensemble& ensemble, double t_end) {
                                  " rejected steps in a row at t = " + fmt(t0) + " (step " + fmt(h) +
                                  ")");
         }
-        // 0.8 err^(-1/3), at most 10x smaller; an unphysical stage: 10x smaller.
-        const double fac = std::isfinite(err) ? std::max(0.1, 0.8 / std::cbrt(err)) : 0.1;
+        // kSafety err^(-1/2), at most 10x smaller; an unphysical stage: 10x smaller.
+        const double fac = std::isfinite(err) ? std::max(0.1, kSafety / std::sqrt(err)) : 0.1;
         step_next_ = h * fac;
-        // A new estimate, unless this state's is at hand (the same state gives the same one).
-        need_dom_eig_ = !fresh;
+        // One rejection is the error control at work; a second in a row may be a stale rho, so
+        // it is estimated anew (unless it was estimated at this very state, which would give
+        // the same number). Re-estimating after every rejection spent 11% of all force passes
+        // at N = 1000, J = 0.1, P = 1e-5, without changing the radius.
+        need_dom_eig_ = !fresh && rejections >= 2;
         continue;
       }
 
-      // Accepted: the predictive controller of the RKC code, the factor kept in [0.1, 10].
-      double fac = 10.0;
-      if (step_last_ > 0.0 && error_last_ > 0.0) {
-        const double num = 0.8 * h * std::cbrt(error_last_);
-        const double den = step_last_ * std::cbrt(err * err);
-        if (num < fac * den)
-          fac = num / den;
-      } else {
-        const double e3 = std::cbrt(err);
-        if (0.8 < fac * e3)
-          fac = 0.8 / e3;
-      }
-      double next = h * std::max(0.1, fac);
+      // Accepted: kSafety err^(-1/2), kept in [0.1, 10]; no growth right after a rejection.
+      double next = h * std::clamp(kSafety / std::sqrt(err), 0.1, 10.0);
       if (rejections > 0)
-        next = std::min(next, h);  // no growth right after a rejection
-      // A step cut short by its end is no guide to the next: the proposal stays, and so does
-      // the controller's history (a short step's small error predicted 5x too large a step).
+        next = std::min(next, h);
+      // A step cut short by its end is no guide to the next: the proposal stays.
       const bool cut = to_stop && h < proposal;
       if (cut)
         next = std::max(next, proposal);
       step_next_ = next;
-      if (!cut) {
-        step_last_ = h;
-        error_last_ = err;
-      }
+      step_last_ = h;
+      error_last_ = err;
       ++steps_;
       if (++since_dom_eig_ >= options_.dom_eig_frequency)
         need_dom_eig_ = true;

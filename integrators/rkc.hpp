@@ -23,22 +23,23 @@
 // overlaps). The ODE state is the equation of motion's y, re-referenced at the start of every
 // step (y_n = 0), so the stages are displacements from the step's start.
 //
-// Error and step control (as in Sommeijer et al.'s RKC code). The embedded estimate
-//   est = (12 (y_n - y_{n+1}) + 6 h (F(y_n) + F(y_{n+1}))) / 15
+// Error and step control. The embedded estimate of Sommeijer et al.'s RKC code,
+//   est = (12 (y_n - y_{n+1}) + 6 h (F(y_n) + F(y_{n+1}))) / 15,
 // needs F(y_{n+1}), which is the next step's F_0 (first same as last): a step costs s force
 // passes. err = RMS(est_i / (atol_i + rtol |y_{n+1,i}|)) with atol_i the atol length in box
 // lengths for a particle, 3 atol / l for the relative volume (as CVODE, cvode.hpp). A step with
-// err > 1 is rejected and retried with h 0.8 err^(-1/3); an accepted one proposes the next with
-// the RKC code's predictive controller, by at most 10x and at least 0.1x.
+// err > 1 is rejected; the next step is 0.7 err^(-1/2) h, by at most 10x either way (the error
+// near jamming grows about as h, not h^3, because contacts open and close within a step; see
+// kSafety in rkc.cpp for the measurements behind this choice).
 //
 // Stiffness. rho is estimated by nonlinear power iteration on force differences, (f(y + dv) -
 // f(y)) / |dv|, from a fixed pseudo-random start vector (so that the estimate depends only on
 // the state: a resumed run repeats it bit for bit), and used times dom_eig_safety (1.2: power
 // iteration underestimates rho by a few per cent, and at 1.0 runs were partly unstable). It
-// is re-estimated every dom_eig_frequency steps, after every rejection and after every discrete
-// event (a remap, a reset, a state this integrator did not leave). The piston's mode is part of
-// y, so it counts in rho. The stage count is s = 1 + floor(sqrt(1 + 1.54 h rho)) (beta(s) ~
-// 0.653 (s^2 - 1)), at least 2; above max_stages the step is cut to fit.
+// is re-estimated every dom_eig_frequency steps, after a second rejection in a row and after
+// every discrete event (a remap, a reset, a state this integrator did not leave). The piston's mode
+// is part of y, so it counts in rho. The stage count is s = 1 + floor(sqrt(1 + 1.54 h rho))
+// (beta(s) ~ 0.653 (s^2 - 1)), at least 2; above max_stages the step is cut to fit.
 //
 // Steps end exactly at the time advance() is asked for (the run's sample times) and at every
 // Lees–Edwards remap, which Model::prepare_step() applies between steps; the neighbour list is
@@ -53,7 +54,7 @@
 // ships it.
 //
 // Checkpoints. Everything RKC carries between steps is a handful of numbers (the proposed step,
-// the last step and error, rho and the steps since its estimate), kept in statistics(), so a
+// rho and the steps since its estimate), kept in statistics(), so a
 // resumed run continues bit for bit (has_solver_history() is false).
 //
 // Scene keys ([integrator] kind = "rkc"):
