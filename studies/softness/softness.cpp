@@ -21,6 +21,8 @@
 #include <numeric>
 #include <tuple>
 
+#include "ensembles/constant_pressure.hpp"
+#include "integrators/registry.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "studies/common.hpp"
@@ -534,8 +536,10 @@ double model_seconds(const SoftnessPreset& p, double alpha, const IntegratorSett
   if (s.family == "cvode") {
     sec = n * t * model_cvode_seconds(alpha, pressure);
   } else {
-    const double passes = s.family == "respa" ? double(p.respa_inner) : 1.0;
-    double steps = n * t * passes / s.dt;
+    // The integrator's own nominal force passes per unit time. Every run of this study is at
+    // constant pressure (StatePoint's xi_V): the piston is what RESPA's cost depends on.
+    const ConstantPressure ensemble(0.0, pressure, StatePoint{}.xi_v);
+    double steps = n * t * make_integrator(s.settings)->force_passes_per_time(ensemble);
     if (budget && p.budget_particle_steps > 0.0)
       steps = std::min(steps, p.budget_particle_steps);
     sec = steps * model_seconds_per_step(alpha);
