@@ -145,6 +145,8 @@ void write_checkpoint(H5Writer& w, const std::vector<ReplicaResult>& replicas) {
     w.attr(g, "seed", static_cast<std::int64_t>(res.seed));
     w.attr(g, "status", res.status);
     w.attr(g, "wall_seconds", res.wall_seconds);
+    w.attr(g, "cpu_seconds", res.cpu_seconds);
+    w.attr(g, "cpu_from_wall", std::int64_t(res.cpu_from_wall));
     w.attr(g, "trajectory_bytes", res.trajectory_bytes);
     w.attr(g, "kernel", res.kernel);
     w.attr(g, "kernel_target", res.kernel_target);
@@ -198,6 +200,11 @@ std::vector<ReplicaResult> read_checkpoint(const H5Reader& r) {
     res.seed = static_cast<std::uint64_t>(r.attr_int(g, "seed"));
     res.status = r.attr_string(g, "status");
     res.wall_seconds = r.attr_double(g, "wall_seconds");
+    // A checkpoint written before CPU time was recorded: its wall seconds stand in.
+    res.cpu_from_wall = !r.has_attr(g, "cpu_seconds") ||
+                        (r.has_attr(g, "cpu_from_wall") && r.attr_int(g, "cpu_from_wall") != 0);
+    res.cpu_seconds =
+        r.has_attr(g, "cpu_seconds") ? r.attr_double(g, "cpu_seconds") : res.wall_seconds;
     res.trajectory_bytes = r.attr_int(g, "trajectory_bytes");
     res.kernel = r.attr_string(g, "kernel");
     res.kernel_target = r.attr_string(g, "kernel_target");
@@ -232,7 +239,7 @@ namespace {
 // in run.cpp, and the ensembles' describe()): they are in the scene, not summary values.
 bool summary_value(const std::string& name) {
   for (const char* described :
-       {"N", "alpha", "wall_seconds", "shear_rate", "imposed_pressure", "xi_V"})
+       {"N", "alpha", "wall_seconds", "cpu_seconds", "shear_rate", "imposed_pressure", "xi_V"})
     if (name == described)
       return false;
   return name.rfind("integrator", 0) != 0;
@@ -283,6 +290,10 @@ RunFile read_run_file(const std::string& path, bool everything) {
       res.status = r.has_attr(g, "status") ? r.attr_string(g, "status") : f.status;
       if (r.has_attr(g, "wall_seconds"))
         res.wall_seconds = r.attr_double(g, "wall_seconds");
+      // A file written before CPU time was recorded: its wall seconds stand in.
+      res.cpu_from_wall = !r.has_attr(g, "cpu_seconds") || r.has_attr(g, "cpu_seconds_note");
+      res.cpu_seconds =
+          r.has_attr(g, "cpu_seconds") ? r.attr_double(g, "cpu_seconds") : res.wall_seconds;
       if (r.exists(g)) {
         for (const auto& name : r.attr_names(g)) {
           if (name.rfind("integrator_", 0) != 0)

@@ -3,10 +3,13 @@
 // finished run can be extended). See README "Checkpoints and restarts".
 //
 //   /checkpoint                      attrs: format, replicas
-//   /checkpoint/replicas/<k>         attrs: seed, status, wall_seconds, trajectory_bytes,
-//                                           kernel, kernel_target, threads, resumes, history,
+//   /checkpoint/replicas/<k>         attrs: seed, status, wall_seconds, cpu_seconds,
+//                                           cpu_from_wall, trajectory_bytes, kernel,
+//                                           kernel_target, threads, resumes, history,
 //                                           t_start, horizon, step_cross, step_norm,
-//                                           step_pairs
+//                                           step_pairs (a checkpoint without cpu_seconds, written
+//                                           before CPU time was recorded, is read with its
+//                                           wall seconds in its place and cpu_from_wall set)
 //     series/<field>                 the samples so far (time, strain, volume, ...)
 //     integrator                     attrs: the integrator's counters
 //     model                          attrs: evaluations, builds_at_last_sort, sorted_once,
@@ -36,7 +39,9 @@ std::vector<ReplicaResult> read_checkpoint(const H5Reader& r);
 // files for the sweep's collect and the studies. Each replica has its own summary (values,
 // verdicts, texts; from /summary, or /replicas/<k>/summary with several) and status; with
 // `everything`, also what /checkpoint holds (series, final state, integrator counters, wall
-// time). An IoError names what is missing.
+// and CPU time). A file without cpu_seconds (written before CPU time was recorded) is read with
+// its wall seconds in their place and ReplicaResult::cpu_from_wall set. An IoError names what is
+// missing.
 struct RunFile {
   std::string scene;   // the root attribute "scene": the canonical scene text
   std::string status;  // the root attribute "status"

@@ -1,6 +1,7 @@
 // The run driver: scene -> state -> time loop with sampling -> summary -> HDF5 + XYZ.
 #include "driver/run.hpp"
 
+#include <time.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -614,6 +615,22 @@ class Watcher {
 
 namespace {
 
+// CPU seconds for run_replica. With one thread, the run's own thread's CPU time
+// (CLOCK_THREAD_CPUTIME_ID): every force pass, integrator step and checkpoint write of the
+// replica happens in it, and other threads of the process are not counted: the Watcher above,
+// the Python module's thread that polls for signals while a run goes on in another thread, and
+// other Python threads or runs of other replicas that a caller might start in the same process.
+// With OpenMP threads the force passes are spread over a team, so the whole process's CPU time
+// (CLOCK_PROCESS_CPUTIME_ID) is taken instead: it counts the team, and would also count
+// anything else the process does meanwhile (a `jamflow run` does nothing else, and the sweep
+// engine and the studies start one `jamflow run` process per point).
+double cpu_clock(bool process) {
+  timespec ts{};
+  if (clock_gettime(process ? CLOCK_PROCESS_CPUTIME_ID : CLOCK_THREAD_CPUTIME_ID, &ts) != 0)
+    return 0.0;
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
 // How long a run goes, decided from its samples so far (so a continued run decides the same).
 struct Length {
   bool done = false;
@@ -702,6 +719,8 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   res.kernel = model.force_field().kernel();
   res.kernel_target = model.force_field().target();
   res.threads = model.force_field().threads();
+  const bool cpu_process = res.threads > 1;
+  const double cpu0 = cpu_clock(cpu_process);
   std::unique_ptr<Integrator> integ = spec.make_integrator();
   std::atomic<bool> attention{false};
   integ->set_interrupt(&attention);
@@ -709,7 +728,7 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   if (integ->has_solver_history())
     res.history = "kept";
 
-  double wall_before = 0.0;
+  double wall_before = 0.0, cpu_before = 0.0;
   long long k_first = 1;  // the first sample this call computes
   if (from) {
     if (from->series.samples.empty())
@@ -721,6 +740,8 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
     res.resumes = from->resumes + 1;
     res.seed = from->seed;
     wall_before = from->wall_seconds;
+    cpu_before = from->cpu_seconds;
+    res.cpu_from_wall = from->cpu_from_wall;
     k_first = static_cast<long long>(from->series.samples.size());
     if (integ->has_solver_history()) {
       res.history = (from->history == "kept" ? std::string() : from->history + "; ") +
@@ -792,12 +813,16 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
     return wall_before +
            std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   };
+  auto cpu_elapsed = [&] { return cpu_before + (cpu_clock(cpu_process) - cpu0); };
   // The replica as it stands, ready to continue.
   auto fill = [&](ReplicaResult& r) {
     r.end = model.snapshot();
     r.final_state = model.state();
     r.integrator_stats = integ->statistics();
+    r.integrator_stats.emplace_back("force_evaluations", double(model.force_evaluations()));
+    r.integrator_stats.emplace_back("force_pass_equivalents", integ->force_pass_equivalents(model));
     r.wall_seconds = elapsed();
+    r.cpu_seconds = cpu_elapsed();
     if (traj_xyz) {
       traj.flush();
       r.trajectory_bytes = static_cast<std::int64_t>(traj.tellp());
@@ -861,12 +886,14 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
         k_max = sample_index(res.horizon, spec.sample_every);
         progress.set_total(res.horizon);
       }
-      // The budget, checked before each sample (a count, so the same sample wherever it runs).
+      // The budget, checked before each sample (a count, so the same sample wherever it runs),
+      // in force-pass equivalents: what the integrator computed, not only the model's passes.
       if (spec.max_force_evaluations > 0 &&
-          model.force_evaluations() >= static_cast<std::size_t>(spec.max_force_evaluations)) {
+          integ->force_pass_equivalents(model) >= double(spec.max_force_evaluations)) {
         res.status = "budget: stopped at t = " + fmt(model.state().time - t_start) + " after " +
+                     fmt(integ->force_pass_equivalents(model)) + " force-pass equivalents (" +
                      std::to_string(model.force_evaluations()) +
-                     " force evaluations ([run] max_force_evaluations = " +
+                     " force evaluations; [run] max_force_evaluations = " +
                      std::to_string(spec.max_force_evaluations) + ")";
         break;
       }
@@ -913,7 +940,6 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
                  ": the state left the engine's range: " + e.what();
   }
   fill(res);
-  res.integrator_stats.emplace_back("force_evaluations", double(model.force_evaluations()));
   res.integrator_stats.emplace_back("neighbour_list_builds", double(model.list_builds()));
   if (traj_xyz) {
     traj.close();
@@ -939,6 +965,7 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
       res.summary.warnings.push_back("t_av = \"auto\": " + len.why);
   }
   res.wall_seconds = elapsed();
+  res.cpu_seconds = cpu_elapsed();
   return res;
 }
 
@@ -1019,6 +1046,10 @@ void write_replica(H5Writer& w, const RunSpec& spec, const ReplicaResult& r,
   for (const auto& [k, v] : src.integrator_stats)
     w.attr(sm, "integrator_" + k, v);
   w.attr(sm, "wall_seconds", src.wall_seconds);
+  w.attr(sm, "cpu_seconds", src.cpu_seconds);
+  if (src.cpu_from_wall)
+    w.attr(sm, "cpu_seconds_note",
+           "includes wall seconds: continued from a checkpoint that recorded no CPU time");
   w.attr(sm, "status", src.status);
 }
 
@@ -1058,15 +1089,19 @@ void write_run_layout(H5Writer& w, const RunSpec& spec,
     ReplicaResult all;
     all.integrator_stats = replicas.front().integrator_stats;
     all.wall_seconds = replicas.front().wall_seconds;
+    all.cpu_seconds = replicas.front().cpu_seconds;
     all.status = replicas.front().status;
     std::vector<Summary> sums;
-    double wall = 0.0;
+    double wall = 0.0, cpu = 0.0;
     for (const auto& r : replicas) {
       sums.push_back(r.summary);
       wall += r.wall_seconds;
+      cpu += r.cpu_seconds;
+      all.cpu_from_wall = all.cpu_from_wall || r.cpu_from_wall;
     }
     all.summary = combine_replicas(sums);
     all.summary.values["wall_seconds_total"] = wall;
+    all.summary.values["cpu_seconds_total"] = cpu;
     write_replica(w, spec, replicas.front(), "", &all);
   } else {
     write_replica(w, spec, replicas.front(), "");
@@ -1126,10 +1161,14 @@ namespace {
 // Prints the summary; returns whether a verdict failed.
 bool print_summary(const RunSpec& spec, const std::vector<ReplicaResult>& results) {
   std::vector<Summary> sums;
-  double wall = 0.0;
+  double wall = 0.0, cpu = 0.0, equivalents = 0.0;
+  bool cpu_from_wall = false;
   for (const auto& r : results) {
     sums.push_back(r.summary);
     wall += r.wall_seconds;
+    cpu += r.cpu_seconds;
+    cpu_from_wall = cpu_from_wall || r.cpu_from_wall;
+    equivalents += statistic(r.integrator_stats, "force_pass_equivalents");
   }
   const std::size_t count = results.size();
   const Summary combined = count > 1 ? combine_replicas(sums) : results.front().summary;
@@ -1173,6 +1212,10 @@ bool print_summary(const RunSpec& spec, const std::vector<ReplicaResult>& result
                   t.values.at("t_av"), t.values.at("t_eq"), t.texts.at("run_length").c_str());
     }
   }
+  std::printf("  force passes   = %.6g force-pass equivalents%s\n", equivalents,
+              count > 1 ? " (all replicas)" : "");
+  std::printf("  cpu time       = %.2f s%s\n", cpu,
+              cpu_from_wall ? " (partly wall time: continued from an older checkpoint)" : "");
   std::printf("  wall time      = %.2f s\n", wall);
   return combined.failed();
 }

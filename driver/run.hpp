@@ -49,9 +49,11 @@ struct RunSpec {
   std::int64_t blocks = 20;
   std::int64_t replicas = 1;
   int threads = 0;
-  // Budget: a replica stops at the first sample at which its force evaluations (the model's
-  // count, one per force pass) reach this; 0 = none (the default). Counted, not timed, so a budget
-  // cuts a run at the same sample wherever it runs. See stopped_by_budget().
+  // Budget: a replica stops at the first sample at which its cost in force-pass equivalents
+  // (Integrator::force_pass_equivalents: the model's force passes, plus CVODE's Jacobian work
+  // weighted by its cost against a force pass) reaches this; 0 = none (the default). Counted,
+  // not timed, so a budget cuts a run at the same sample wherever it runs. The key keeps its
+  // name. See stopped_by_budget().
   std::int64_t max_force_evaluations = 0;
   // [output]
   std::string file = "jamflow.h5";
@@ -133,6 +135,11 @@ struct ReplicaResult {
   Summary summary;
   std::vector<std::pair<std::string, double>> integrator_stats;
   double wall_seconds = 0.0;
+  // CPU seconds of the replica's computation (see run_replica); a continued replica counts the
+  // whole run. cpu_from_wall: a file or checkpoint written before CPU time was recorded, whose
+  // wall seconds stand in for (part of) it.
+  double cpu_seconds = 0.0;
+  bool cpu_from_wall = false;
   std::uint64_t seed = 0;
   // "complete", "running" (a checkpoint of a run that goes on), "interrupted at t = ...",
   // "failed at t = ..." or "budget: stopped at t = ..." ([run] max_force_evaluations).
@@ -177,7 +184,8 @@ struct RunOptions {
 // holds everything sampled until then. With `from` (a checkpoint of this spec's replica), the
 // replica continues where it stopped: for Euler and RESPA bit for bit as if never stopped.
 // The flags of `options` are polled between integrator steps, so a run stops within about
-// 0.1 s of wall time plus one step.
+// 0.1 s of wall time plus one step. The replica's wall and CPU seconds are measured around this
+// call (and added to those of `from`).
 ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOptions& options,
                           const ReplicaResult* from = nullptr);
 
@@ -187,8 +195,9 @@ State initial_state(const RunSpec& spec, std::uint64_t seed);
 // Writes the HDF5 layout (see README "Output") and the replicas' checkpoints (driver/
 // checkpoint.hpp) through `w`. With several replicas, the first is written at the top level
 // and all of them under /replicas/<k>; the top-level /summary then holds combine_replicas() of
-// all of them plus wall_seconds_total (its integrator counters and wall_seconds stay the first
-// replica's). The root attribute "status" is "complete" only when every replica is.
+// all of them plus wall_seconds_total and cpu_seconds_total (its integrator counters,
+// wall_seconds and cpu_seconds stay the first replica's). The root attribute "status" is "complete"
+// only when every replica is.
 void write_run_layout(H5Writer& w, const RunSpec& spec, const std::vector<ReplicaResult>& replicas);
 
 // write_run_layout() into `path` (through a temporary file renamed when complete). Returns

@@ -105,7 +105,14 @@ class Cvode final : public Integrator {
   std::string name() const override { return "cvode"; }
   // Adaptive: the global error is proportional to the tolerance, so the declared order is 1
   // in rtol (tests measure it); nominal_dt() = 0 marks it adaptive.
+  using Integrator::order;
   int order() const override { return 1; }
+  // Adaptive: the cost per unit time is known only once it ran (NaN).
+  double force_passes_per_time(const Ensemble& ensemble) const override;
+  // The model's force evaluations plus the Jacobian work weighted by its measured cost against
+  // one force pass (cvode.cpp: the contact data of each Jacobian setup, the Jacobian-vector
+  // products, the preconditioner setups and solves).
+  double force_pass_equivalents(const Model& model) const override;
   void advance(Model& model, const Ensemble& ensemble, double t_end) override;
   void reset() override;
   std::vector<std::pair<std::string, double>> statistics() const override;

@@ -39,6 +39,10 @@ void Euler::advance(Model& model, const Ensemble& ensemble, double t_end) {
   }
 }
 
+double Euler::force_passes_per_time(const Ensemble& /*ensemble*/) const {
+  return 1.0 / dt_;
+}
+
 std::vector<std::pair<std::string, double>> Euler::statistics() const {
   return {{"steps", double(steps_)}};
 }

@@ -11,7 +11,10 @@ class Euler final : public Integrator {
  public:
   explicit Euler(double dt);
   std::string name() const override { return "euler"; }
+  using Integrator::order;
   int order() const override { return 1; }
+  // One force pass per step.
+  double force_passes_per_time(const Ensemble& ensemble) const override;
   void advance(Model& model, const Ensemble& ensemble, double t_end) override;
   std::vector<std::pair<std::string, double>> statistics() const override;
   void restore_statistics(const std::vector<std::pair<std::string, double>>& stats) override {

@@ -21,8 +21,28 @@ class Integrator {
   virtual ~Integrator() = default;
 
   virtual std::string name() const = 0;  // the scene's `kind`
-  // Declared convergence order in the step size (tests measure it).
+  // Declared convergence order in the step size (tests measure it), for the worst case over
+  // ensembles.
   virtual int order() const = 0;
+  // The order for this ensemble (RESPA: a collective level without a piston is exact, so the
+  // order can be higher at constant volume). Default: order().
+  virtual int order(const Ensemble& ensemble) const {
+    (void)ensemble;
+    return order();
+  }
+
+  // Nominal force passes per unit time in this ensemble, for cost estimates: for fixed-step
+  // integrators what the scheme costs per step over dt (Euler: 1 / dt); NaN for adaptive ones,
+  // whose cost is known only once they ran (force_pass_equivalents()).
+  virtual double force_passes_per_time(const Ensemble& ensemble) const = 0;
+
+  // The cost so far, in force-pass equivalents: the model's force evaluations plus whatever
+  // else the integrator computes, weighted by its cost relative to one force pass (CVODE's
+  // Jacobian-vector products, see cvode.hpp). The run budget ([run] max_force_evaluations)
+  // counts this. Default: the model's force evaluations.
+  virtual double force_pass_equivalents(const Model& model) const {
+    return double(model.force_evaluations());
+  }
 
   // Advance to exactly t_end (model.state().time == t_end on return), or, once the interrupt
   // flag is set, stop early at the end of a step (model.state().time < t_end on return).

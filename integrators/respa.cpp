@@ -15,6 +15,11 @@ int scheme_order(RespaOptions::Scheme s) {
   return s == RespaOptions::Scheme::kHeun ? 2 : 1;
 }
 
+// Force passes of one sub-step of a level that evaluates forces.
+double scheme_passes(RespaOptions::Scheme s) {
+  return s == RespaOptions::Scheme::kHeun ? 2.0 : 1.0;
+}
+
 RespaOptions::Scheme parse_scheme(const std::string& s) {
   return s == "heun" ? RespaOptions::Scheme::kHeun : RespaOptions::Scheme::kEuler;
 }
@@ -39,6 +44,19 @@ int Respa::order(const Ensemble& ensemble) const {
   // Without a piston the collective level is exact: only the particle level's scheme counts.
   const bool particles_inner = options_.inner == RespaOptions::Level::kParticles;
   return std::min(2, scheme_order(particles_inner ? options_.inner_scheme : options_.outer_scheme));
+}
+
+double Respa::force_passes_per_time(const Ensemble& ensemble) const {
+  // A particle level always evaluates forces; a collective level only with a piston (the
+  // virial of its state). One pass per Euler sub-step, two per Heun sub-step. The inner level
+  // takes n_inner sub-steps per step, the outer level two half-steps.
+  const bool particles_inner = options_.inner == RespaOptions::Level::kParticles;
+  const bool inner_costs = particles_inner || ensemble.has_piston();
+  const bool outer_costs = !particles_inner || ensemble.has_piston();
+  const double inner =
+      inner_costs ? double(options_.n_inner) * scheme_passes(options_.inner_scheme) : 0.0;
+  const double outer = outer_costs ? 2.0 * scheme_passes(options_.outer_scheme) : 0.0;
+  return (inner + outer) / options_.dt;
 }
 
 void Respa::particle_flow(Model& model, Scheme scheme, double h) {

@@ -81,7 +81,9 @@ class Respa final : public Integrator {
   // Order with a piston (the worst case); see the table above.
   int order() const override;
   // Exact order for this ensemble (a collective level without a piston is exact).
-  int order(const Ensemble& ensemble) const;
+  int order(const Ensemble& ensemble) const override;
+  // Force passes per step over dt, from "Cost per step" above.
+  double force_passes_per_time(const Ensemble& ensemble) const override;
   void advance(Model& model, const Ensemble& ensemble, double t_end) override;
   std::vector<std::pair<std::string, double>> statistics() const override;
   void restore_statistics(const std::vector<std::pair<std::string, double>>& stats) override {

@@ -329,6 +329,10 @@ void Rkc::advance(Model& model, const Ensemble& ensemble, double t_end) {
   }
 }
 
+double Rkc::force_passes_per_time(const Ensemble& /*ensemble*/) const {
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
 std::vector<std::pair<std::string, double>> Rkc::statistics() const {
   return {{"steps", double(steps_)},
           {"rejected_steps", double(rejected_)},

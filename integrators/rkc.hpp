@@ -115,6 +115,8 @@ class Rkc final : public Integrator {
 
   std::string name() const override { return "rkc"; }
   int order() const override { return 2; }
+  // Adaptive: the cost per unit time is known only once it ran (NaN).
+  double force_passes_per_time(const Ensemble& ensemble) const override;
   void advance(Model& model, const Ensemble& ensemble, double t_end) override;
   void reset() override;
   std::vector<std::pair<std::string, double>> statistics() const override;

@@ -337,6 +337,7 @@ py::dict summary_dict(const jamflow::RunSpec& spec, const jamflow::Summary& sum,
   for (const auto& [k, v] : r.integrator_stats)
     d[py::str("integrator_" + k)] = v;
   d["wall_seconds"] = r.wall_seconds;
+  d["cpu_seconds"] = r.cpu_seconds;
   d["status"] = r.status;
   return d;
 }
@@ -395,12 +396,14 @@ RunResult run(py::handle scene_source, py::object out, bool force, bool progress
   if (reps.size() > 1) {
     jamflow::Summary all = jamflow::combined_summary(reps);
     result.summary = summary_dict(spec, all, reps.front());
-    double wall = 0.0;
+    double wall = 0.0, cpu = 0.0;
     for (const auto& r : reps) {
       wall += r.wall_seconds;
+      cpu += r.cpu_seconds;
       result.replicas.append(py::cast(replica_result(spec, r)));
     }
     result.summary["wall_seconds_total"] = wall;
+    result.summary["cpu_seconds_total"] = cpu;
     result.warnings = py::list();
     for (const auto& w : all.warnings)
       result.warnings.append(w);

@@ -18,6 +18,7 @@
 #include "driver/checkpoint.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
+#include "studies/common.hpp"
 #include "studies/sweep_study.hpp"
 #include "sweep/execute.hpp"
 
@@ -548,11 +549,12 @@ DiagnosedRun diagnose_file(const std::string& label, const RunSpec& spec, const 
     const std::string log = file.substr(0, file.find(".h5")) + ".log";
     d.result.status = "aborted: " + last_line(log);
   }
-  d.cpu_seconds = d.result.wall_seconds;
-  for (const auto& [k, v] : d.result.integrator_stats) {
-    if (k == "force_evaluations")
-      d.particle_steps = v * double(d.n);
-  }
+  // The run's CPU seconds (an older file's wall seconds: result.cpu_from_wall), and its cost in
+  // force-pass equivalents (CVODE's Jacobian work included; an older file's force evaluations).
+  d.cpu_seconds = d.result.cpu_seconds;
+  const double passes = statistic(d.result.integrator_stats, "force_evaluations");
+  d.particle_steps =
+      statistic(d.result.integrator_stats, "force_pass_equivalents", passes) * double(d.n);
   const bool ok = d.result.status == "complete";
   if (ok) {
     d.balance =
@@ -674,6 +676,7 @@ void write_diagnosed(H5Writer& out, const std::string& group, const DiagnosedRun
   out.attr(group, "N", r.n);
   out.attr(group, "gdot", r.gdot);
   out.attr(group, "cpu_seconds", r.cpu_seconds);
+  out.attr(group, "cpu_from_wall", static_cast<std::int64_t>(r.result.cpu_from_wall));
   out.attr(group, "wall_seconds", r.result.wall_seconds);
   out.attr(group, "particle_steps", r.particle_steps);
   if (r.cls.verdict == Verdict::kNotAvailable)
@@ -724,6 +727,10 @@ void write_diagnosed(H5Writer& out, const std::string& group, const DiagnosedRun
 }
 
 // ---- Scenes ---------------------------------------------------------------------------------
+
+std::string cpu_cell(const DiagnosedRun& run) {
+  return num(run.cpu_seconds, 3) + (run.result.cpu_from_wall ? " (wall)" : "");
+}
 
 std::string short_num(double v) {
   char buf[48];

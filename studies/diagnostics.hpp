@@ -190,8 +190,10 @@ struct DiagnosedRun {
   EnergyBalance balance;
   WindowResult window;
   Classification cls;
-  // The run's wall seconds in its `jamflow run` process (one thread; the engine runs one point
-  // per core), and N * its force evaluations (the cost that does not depend on the machine).
+  // The run's CPU seconds in its `jamflow run` process (one thread; the engine runs one point
+  // per core; a file written before CPU time was recorded gives its wall seconds, and
+  // result.cpu_from_wall says so), and N * its force-pass equivalents (the cost that does not
+  // depend on the machine: force passes, plus CVODE's Jacobian work in force-pass units).
   double cpu_seconds = 0.0;
   double particle_steps = 0.0;
   std::string unavailable;  // ConfigError text when the scene was rejected
@@ -283,6 +285,10 @@ IntegratorSetting cvode_setting(double rtol, double atol, long max_steps = 0);
 // least `blocks` samples). Numbers are written at round-trip precision.
 StudyScene scene_toml(const StatePoint& point, const IntegratorSetting& setting, double t_eq,
                       double t_av, double sample_every, int blocks = 20);
+
+// A report's "CPU s" cell: the run's CPU seconds (3 digits), marked "(wall)" when its file was
+// written before CPU time was recorded and its wall seconds stand in.
+std::string cpu_cell(const DiagnosedRun& run);
 
 // Formats a number for labels ("0.05", "1e-05"; 6 significant digits).
 std::string short_num(double v);

@@ -56,9 +56,10 @@ Table read_table(const std::string& path) {
   return t;
 }
 
-double points_cpu_hours(const std::string& dir) {
+double points_cpu_hours(const std::string& dir, std::size_t* from_wall) {
   namespace fs = std::filesystem;
   double seconds = 0.0;
+  std::size_t walls = 0;
   std::error_code ec;
   for (auto it = fs::recursive_directory_iterator(dir, ec);
        !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
@@ -71,22 +72,31 @@ double points_cpu_hours(const std::string& dir) {
       for (const auto& t : plan.tasks()) {
         if (sweep::probe(plan, t) != sweep::TaskState::kDone)
           continue;
-        for (const auto& r : read_run_file(plan.task_file(t), false).replicas)
-          seconds += r.wall_seconds;
+        for (const auto& r : read_run_file(plan.task_file(t), false).replicas) {
+          seconds += r.cpu_seconds;  // an older file's wall seconds (read_run_file)
+          walls += r.cpu_from_wall ? 1 : 0;
+        }
       }
     } catch (const std::exception&) {
       // a sweep file that no longer loads, or a run file that cannot be read: nothing to count
     }
   }
+  if (from_wall)
+    *from_wall = walls;
   return seconds / 3600.0;
 }
 
 std::string cost_line(const std::string& dir, double cpu_hours_estimate, double wall_seconds) {
-  return "- Cost: " + num(points_cpu_hours(dir), 3) +
-         " hours measured (the runs' wall seconds, one thread each, summed: CPU-hours on a "
-         "quiet machine, more on a shared one, where a run also waits for a core), against " +
-         num(cpu_hours_estimate, 3) + " CPU-hours estimated; this invocation took " +
-         num(wall_seconds / 60.0, 3) +
+  std::size_t walls = 0;
+  const double hours = points_cpu_hours(dir, &walls);
+  return "- Cost: " + num(hours, 3) +
+         " CPU-hours measured (the runs' CPU seconds, one thread each, summed" +
+         (walls > 0 ? "; " + std::to_string(walls) +
+                          " run files written before CPU time was recorded count their wall "
+                          "seconds"
+                    : std::string()) +
+         "), against " + num(cpu_hours_estimate, 3) +
+         " CPU-hours estimated; this invocation took " + num(wall_seconds / 60.0, 3) +
          " min of wall time (points finished earlier are not rerun).\n\n";
 }
 

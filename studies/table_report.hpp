@@ -22,13 +22,15 @@ struct Table {
 Table read_table(const std::string& path);  // an empty table if the file is absent
 std::string read_file(const std::string& path);
 
-// The CPU-hours of the runs under `dir`: the wall seconds (one thread each) of every finished
+// The CPU-hours of the runs under `dir`: the CPU seconds (one thread each) of every finished
 // run of every sweep below it (each `sweep.toml` with its `runs/`: every stage of a study in
-// stages too); a run stopped by its budget counts, an unfinished one does not.
-double points_cpu_hours(const std::string& dir);
+// stages too); a run stopped by its budget counts, an unfinished one does not. A run file
+// written before CPU time was recorded counts its wall seconds; `from_wall` (if given) is then
+// the number of such runs.
+double points_cpu_hours(const std::string& dir, std::size_t* from_wall = nullptr);
 
-// A report's cost line: the points' measured hours under `dir` against the estimate, and this
-// invocation's wall time.
+// A report's cost line: the points' measured CPU-hours under `dir` against the estimate, and
+// this invocation's wall time.
 std::string cost_line(const std::string& dir, double cpu_hours_estimate, double wall_seconds);
 
 // The analysis JSON written by `jamflow analyze` (an empty object, with a warning on stderr,

@@ -88,7 +88,10 @@ Collected collect(const Plan& plan, const std::string& path) {
     const Point* point;
     RunSpec spec;
     Summary sum;
-    double wall_seconds = 0.0, force_evaluations = 0.0;  // summed over replicas: the cost
+    // Summed over replicas: the cost. cpu_from_wall: some replica's file was written before
+    // CPU time was recorded, and its wall seconds stand in.
+    double wall_seconds = 0.0, cpu_seconds = 0.0, force_evaluations = 0.0, equivalents = 0.0;
+    bool cpu_from_wall = false;
   };
   std::vector<Row> rows;
   bool all_cp = true;
@@ -96,7 +99,8 @@ Collected collect(const Plan& plan, const std::string& path) {
     auto& ts = of_point[p.index];
     std::sort(ts.begin(), ts.end(), [](auto a, auto b) { return a->replica < b->replica; });
     std::vector<Summary> sums;
-    double wall = 0.0, evaluations = 0.0;  // the cost, summed over the replicas
+    double wall = 0.0, cpu = 0.0, evaluations = 0.0, equivalents = 0.0;  // summed: the cost
+    bool cpu_from_wall = false;
     std::string why;
     for (const Task* t : ts) {
       std::string detail;
@@ -113,8 +117,12 @@ Collected collect(const Plan& plan, const std::string& path) {
       const ReplicaResult res = read_run_file(plan.task_file(*t), false).replicas.front();
       sums.push_back(res.summary);
       wall += res.wall_seconds;
-      for (const auto& [name, value] : res.integrator_stats)
-        evaluations += name == "force_evaluations" ? value : 0.0;
+      cpu += res.cpu_seconds;
+      cpu_from_wall = cpu_from_wall || res.cpu_from_wall;
+      const double passes = statistic(res.integrator_stats, "force_evaluations");
+      evaluations += passes;
+      // A file written before force-pass equivalents were recorded: its force passes.
+      equivalents += statistic(res.integrator_stats, "force_pass_equivalents", passes);
     }
     if (!why.empty()) {
       out.left_out.push_back(p.name + ": " + why);
@@ -122,7 +130,10 @@ Collected collect(const Plan& plan, const std::string& path) {
     }
     Row row{&p, parse_run_spec(plan.task_scene(*ts.front())), {}};
     row.wall_seconds = wall;
+    row.cpu_seconds = cpu;
+    row.cpu_from_wall = cpu_from_wall;
     row.force_evaluations = evaluations;
+    row.equivalents = equivalents;
     row.sum = sums.size() > 1 ? combine_replicas(sums) : sums.front();
     all_cp = all_cp && row.spec.ensemble->imposed_pressure().has_value();
     rows.push_back(std::move(row));
@@ -141,8 +152,9 @@ Collected collect(const Plan& plan, const std::string& path) {
     header.push_back(o);
     header.push_back(o + "_err");
   }
-  for (const char* c : {"J", "energy_balance", "replicas", "steady", "stable", "decorrelated",
-                        "wall_seconds", "force_evaluations", "folder"})
+  for (const char* c :
+       {"J", "energy_balance", "replicas", "steady", "stable", "decorrelated", "wall_seconds",
+        "cpu_seconds", "cpu_from_wall", "force_evaluations", "force_pass_equivalents", "folder"})
     header.push_back(c);
 
   std::vector<std::vector<std::string>> table;
@@ -174,7 +186,10 @@ Collected collect(const Plan& plan, const std::string& path) {
     for (const char* verdict : {"steady", "stable", "decorrelated"})
       cells.push_back(cell(get(verdict)));
     cells.push_back(cell(row.wall_seconds));
+    cells.push_back(cell(row.cpu_seconds));
+    cells.push_back(row.cpu_from_wall ? "1" : "0");
     cells.push_back(cell(row.force_evaluations));
+    cells.push_back(cell(row.equivalents));
     cells.push_back(csv_text(fs::relative(plan.point_dir(*row.point), plan.out_dir).string()));
     table.push_back(std::move(cells));
   }

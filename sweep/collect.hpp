@@ -16,8 +16,11 @@ struct Collected {
 // Columns: point, one per varied key, ensemble, N, P (the imposed pressure; only when every
 // row is at constant pressure, so that analyze reads the table as granular data), gdot, phi,
 // pressure, sigma_xy, eta, mu (each with _err), J, energy_balance, replicas, steady, stable,
-// decorrelated (1 pass, 0 fail, empty not checked), wall_seconds and force_evaluations (the
-// cost, summed over the replicas), folder. With several replicas each _err is
+// decorrelated (1 pass, 0 fail, empty not checked), the cost summed over the replicas:
+// wall_seconds, cpu_seconds (the runs' CPU time; cpu_from_wall = 1 when a run file written before
+// CPU time was recorded gave its wall seconds instead), force_evaluations and
+// force_pass_equivalents (Integrator::force_pass_equivalents: CVODE's Jacobian work included;
+// an older file's force evaluations), folder. With several replicas each _err is
 // the larger of the block error propagated to the mean and the replica scatter error
 // (std / sqrt(R)): the block error alone is too small when blocks are short (README).
 // `path` ends in .csv, or in .h5 for the same table as HDF5 (numeric columns are datasets

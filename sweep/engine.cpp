@@ -25,9 +25,11 @@ extern "C" void on_engine_signal(int sig) {
     g_stop.store(sig);
 }
 
-// One particle's force evaluation and drift on one core: 19-23 ns in the throughput benchmark
-// (N = 10000, README "Benchmark"), 30-45 ns measured for whole runs at N = 1000 on a shared
-// 2-core machine (lists, sampling, the piston).
+// CPU seconds of one particle's force evaluation and drift on one core: 19-23 ns in the
+// throughput benchmark (N = 10000, README "Benchmark"); 30-32 ns of the run's CPU time
+// (cpu_seconds) for whole Euler runs at N = 1000, phi = 0.62, constant volume (lists, sampling),
+// while their wall time on the shared 2-core machine gave 100-185 ns. 40 ns leaves room for the
+// piston and the pow loop (alpha_r != 2).
 constexpr double kSecondsPerParticleStep = 40e-9;
 
 }  // namespace

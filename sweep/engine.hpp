@@ -43,7 +43,7 @@ std::string write_slurm_script(const Plan& plan, SlurmOptions options);
 std::string jamflow_exe();
 
 // Expected work of a plan's tasks in particle force evaluations, and a CPU-hour estimate at
-// the measured throughput of one force pass and drift on one core (README "Benchmark").
+// the measured CPU time of one force pass and drift on one core (engine.cpp).
 struct CostEstimate {
   std::size_t tasks = 0;
   double particle_steps = 0.0;  // particle force evaluations

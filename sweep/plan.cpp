@@ -2,13 +2,13 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
-#include <variant>
 
 #include "driver/run.hpp"
 #include "lib/error.hpp"
@@ -127,31 +127,15 @@ void anchor_init(Scene& scene, const fs::path& dir) {
 }
 
 // Expected particle force evaluations of one replica: N x (t_eq + t_av, or max_time) x force
-// passes per unit time. Euler: 1 / dt; RESPA: n_inner (particles inner) or n_inner + 2 (piston
-// inner), x2 with Heun sub-steps, per dt; CVODE,
-// whose steps adapt: 4 per tau_0, what RESPA's dt = 1 costs (a relative cost only). At most the
-// run's budget, N x [run] max_force_evaluations.
+// passes per unit time, as the integrator answers it for the run's ensemble
+// (Integrator::force_passes_per_time: Euler 1 / dt, RESPA from its scheme, n_inner and piston);
+// CVODE, whose steps adapt: 4 per tau_0, what RESPA at dt = 1 costs at constant volume (a
+// relative cost only). At most the run's budget, N x [run] max_force_evaluations.
 double expected_cost(const RunSpec& spec) {
   const double n = spec.init_state ? double(spec.init_state->size()) : double(spec.n);
   const double length = spec.auto_av ? spec.max_time : spec.t_eq + spec.t_av;
-  const IntegratorSettings& in = spec.integrator;
-  double per_time = 4.0;
-  if (const auto dt = in.number("dt"); dt && *dt > 0.0) {
-    per_time = 1.0 / *dt;
-    if (in.kind == "respa") {
-      const auto it = in.values.find("inner_scheme");
-      const bool heun = it != in.values.end() && std::holds_alternative<std::string>(it->second) &&
-                        std::get<std::string>(it->second) == "heun";
-      // Particles inner: n_inner passes a step. Piston inner: two particle half-steps, and each
-      // piston sub-step needs the virial of the dilated state, a pass too.
-      const auto inner = in.values.find("inner");
-      const bool piston = inner != in.values.end() &&
-                          std::holds_alternative<std::string>(inner->second) &&
-                          std::get<std::string>(inner->second) == "piston";
-      const double n_inner = in.number("n_inner").value_or(4.0);
-      per_time *= (piston ? n_inner + 2.0 : n_inner) * (heun ? 2.0 : 1.0);
-    }
-  }
+  const double nominal = spec.make_integrator()->force_passes_per_time(*spec.ensemble);
+  const double per_time = std::isfinite(nominal) ? nominal : 4.0;
   const double cost = n * length * per_time;
   // A run stops at its budget of force evaluations ([run] max_force_evaluations).
   return spec.max_force_evaluations > 0 ? std::min(cost, n * double(spec.max_force_evaluations))

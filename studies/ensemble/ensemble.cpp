@@ -223,6 +223,7 @@ void write_ensemble(H5Writer& w, const EnsembleRuns& e) {
     for (const auto& [k2, v] : r.summary.values)
       w.attr(sm, k2, v);
     w.attr(sm, "wall_seconds", r.wall_seconds);
+    w.attr(sm, "cpu_seconds", r.cpu_seconds);
     w.attr(sm, "status", r.status);
   }
 }

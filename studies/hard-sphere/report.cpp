@@ -38,9 +38,10 @@ const std::map<std::string, SizeLaw>& table2() {
 }
 const char* const kParameters[] = {"phi_J", "b_phi", "C_phi", "mu_J", "b_mu", "C_mu"};
 
-// What the points cost, measured: CPU time (each replica ran on one thread, so its wall time)
-// per integrator, per particle force evaluation and per particle and tau_0, and what the paper
-// preset would need at the measured rate.
+// What the points cost, measured: CPU time (each replica ran on one thread) per integrator, per
+// particle force-pass equivalent and per particle and tau_0, and what the paper preset would
+// need at the measured rate. A table collected before CPU time and force-pass equivalents were
+// recorded gives wall seconds and force evaluations instead (and the text says so).
 std::string cost_section(const std::string& study, const Table& table, const SweepStudy& run) {
   struct Cost {
     int points = 0;
@@ -63,11 +64,17 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
   Cost all;
   std::string slowest;
   double slowest_seconds = 0.0;
+  const bool has_cpu = table.column("cpu_seconds") >= 0;
+  const bool has_equivalents = table.column("force_pass_equivalents") >= 0;
+  std::size_t from_wall = 0;
   for (std::size_t r = 0; r < table.rows.size(); ++r) {
-    const double n = table.number(r, "N"), wall = table.number(r, "wall_seconds"),
-                 evals = table.number(r, "force_evaluations");
+    const double n = table.number(r, "N");
+    const double wall = table.number(r, has_cpu ? "cpu_seconds" : "wall_seconds");
+    const double evals =
+        table.number(r, has_equivalents ? "force_pass_equivalents" : "force_evaluations");
     if (!(wall > 0.0) || !(evals > 0.0))
       continue;
+    from_wall += !has_cpu || table.number(r, "cpu_from_wall") > 0.5 ? 1 : 0;
     const double reps = std::max(1.0, table.number(r, "replicas"));
     const double t = table.number(r, "run.t_eq") + table.number(r, "run.t_av");
     for (Cost* c : {&by_kind[label(std::int64_t(n), table.number(r, "P"))], &all}) {
@@ -98,8 +105,14 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
   for (const auto& [kind, c] : by_kind)
     row(kind, c);
   row("all", all);
-  md << "Measured from the point files: CPU time is each replica's wall time on one thread, on a "
-        "2-core machine shared with other work (timings there drift by 20-50%).\n\n"
+  md << "Measured from the point files: CPU time of each replica on one thread, on a 2-core "
+        "machine shared with other work; force evaluations are force-pass equivalents (CVODE's "
+        "Jacobian work included)";
+  if (from_wall > 0)
+    md << "; " << from_wall
+       << " points' files were written before CPU time (or force-pass equivalents) was "
+          "recorded and give their wall time (and force evaluations) instead";
+  md << ".\n\n"
      << markdown_table({"integrator", "points", "CPU hours", "ns per particle force evaluation",
                         "force evaluations per tau_0", "ns per particle per tau_0"},
                        rows)

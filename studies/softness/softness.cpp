@@ -21,6 +21,8 @@
 #include <numeric>
 #include <tuple>
 
+#include "ensembles/constant_pressure.hpp"
+#include "integrators/registry.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "studies/common.hpp"
@@ -534,8 +536,10 @@ double model_seconds(const SoftnessPreset& p, double alpha, const IntegratorSett
   if (s.family == "cvode") {
     sec = n * t * model_cvode_seconds(alpha, pressure);
   } else {
-    const double passes = s.family == "respa" ? double(p.respa_inner) : 1.0;
-    double steps = n * t * passes / s.dt;
+    // The integrator's own nominal force passes per unit time. Every run of this study is at
+    // constant pressure (StatePoint's xi_V): the piston is what RESPA's cost depends on.
+    const ConstantPressure ensemble(0.0, pressure, StatePoint{}.xi_v);
+    double steps = n * t * make_integrator(s.settings)->force_passes_per_time(ensemble);
     if (budget && p.budget_particle_steps > 0.0)
       steps = std::min(steps, p.budget_particle_steps);
     sec = steps * model_seconds_per_step(alpha);
@@ -867,8 +871,9 @@ int run_softness_preset(const SoftnessPreset& preset, const StudyOptions& option
     w.attr("/", "pressure_grid", "P = delta^(alpha_r - 1)");
     w.attr("/", "p_min", preset.p_min);
     w.attr("/", "timing",
-           "cpu_seconds: wall seconds of each run's jamflow run process on 1 thread, one run "
-           "per core");
+           "cpu_seconds: CPU seconds of each run's jamflow run process on 1 thread, one run "
+           "per core (a run with cpu_from_wall = 1 was written before CPU time was recorded: "
+           "its wall seconds)");
     for (const auto& [j, ref] : refs) {
       char g[64];
       std::snprintf(g, sizeof g, "/reference/J%g", j);
@@ -1142,13 +1147,13 @@ int run_softness_preset(const SoftnessPreset& preset, const StudyOptions& option
                num(pr.dphi_err, 2) + ")";
         if (!r.complete()) {
           rows.push_back({short_num(pr.delta), num(pr.pressure, 3), r.verdict_text(), "—", "—", vs,
-                          cell(pr.duration), cell(r.cpu_seconds)});
+                          cell(pr.duration), cpu_cell(r)});
           continue;
         }
         rows.push_back({short_num(pr.delta), num(pr.pressure, 3), r.verdict_text(),
                         pm(r.value("mu"), r.value("mu_err"), 4),
                         pm(r.value("phi"), r.value("phi_err"), 5), vs, cell(pr.duration),
-                        num(r.cpu_seconds, 3)});
+                        cpu_cell(r)});
       }
       md += "### α_r = " + short_num(ar.alpha) + ", J = " + short_num(j) + " (" +
             ar.integrator.label + ")\n\n" +
@@ -1164,17 +1169,16 @@ int run_softness_preset(const SoftnessPreset& preset, const StudyOptions& option
       std::vector<std::vector<std::string>> rows;
       for (std::size_t k = 0; k < s.runs.size(); ++k) {
         const DiagnosedRun& r = s.runs[k];
-        rows.push_back({s.settings[k].label, s.verdict[k],
-                        r.complete() ? pm(r.balance.ratio, r.balance.error, 3) : "—",
-                        r.complete() ? num(r.window.force_correlation, 3) : "—",
-                        std::isfinite(s.mu_err[k])
-                            ? num(100 * s.mu_err[k], 2) + " ± " + num(100 * s.mu_floor[k], 2) + " %"
-                            : "—",
-                        std::isfinite(s.phi_err[k])
-                            ? num(s.phi_err[k], 2) + " ± " + num(s.phi_floor[k], 2)
-                            : "—",
-                        cell(1e6 * s.seconds_per_tau[k]), cell(s.evaluations_per_tau[k]),
-                        num(r.cpu_seconds, 3)});
+        rows.push_back(
+            {s.settings[k].label, s.verdict[k],
+             r.complete() ? pm(r.balance.ratio, r.balance.error, 3) : "—",
+             r.complete() ? num(r.window.force_correlation, 3) : "—",
+             std::isfinite(s.mu_err[k])
+                 ? num(100 * s.mu_err[k], 2) + " ± " + num(100 * s.mu_floor[k], 2) + " %"
+                 : "—",
+             std::isfinite(s.phi_err[k]) ? num(s.phi_err[k], 2) + " ± " + num(s.phi_floor[k], 2)
+                                         : "—",
+             cell(1e6 * s.seconds_per_tau[k]), cell(s.evaluations_per_tau[k]), cpu_cell(r)});
       }
       md += "### α_r = " + short_num(ar.alpha) + ", δ = " + short_num(s.delta) +
             " (P = " + num(s.point.pressure, 3) + ", gdot = " + num(s.point.gdot, 3) +

@@ -226,7 +226,7 @@ std::string case_table(const CaseResult& cr) {
                     num(r.window.force_correlation, 3), num(r.window.reversed_fraction, 2),
                     num(r.window.dsigma_lag1, 2), num(r.window.lane_order, 2),
                     pm(r.value("sigma_xy"), r.value("sigma_xy_err"), 3), observable_cell(r, cp),
-                    num(r.cpu_seconds, 3)});
+                    cpu_cell(r)});
   }
   return markdown_table(
       {"integrator", "verdict", "energy balance", "force step corr.", "reversed frac.", "lag-1 dσ",
@@ -558,7 +558,8 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
       short_num(preset.budget_particle_steps * 40e-9) +
       " s of one core; 0 = none), i.e. too slow for this preset. Criteria: "
       "`studies/stability/README.md`. Every run is a `jamflow run` process on one thread, one "
-      "per core (the sweep engine); CPU s is its wall time.\n\n";
+      "per core (the sweep engine); CPU s is its CPU time (\"(wall)\": a run file written before "
+      "CPU time was recorded, its wall time).\n\n";
   std::vector<std::vector<std::string>> summary_rows;
   for (const auto& cr : results) {
     if (cr.c.respa_size)

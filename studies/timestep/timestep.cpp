@@ -284,7 +284,7 @@ std::string point_table(const PointResult& pr) {
                         ? (cp ? num(e.obs_err, 2) + " ± " + num(e.obs_floor, 2)
                               : num(100 * e.obs_err, 2) + " ± " + num(100 * e.obs_floor, 2) + " %")
                         : "—",
-                    pm(r.balance.ratio, r.balance.error, 3), num(r.cpu_seconds, 3),
+                    pm(r.balance.ratio, r.balance.error, 3), cpu_cell(r),
                     num(r.particle_steps, 3)});
   }
   return markdown_table(
@@ -444,8 +444,9 @@ int run_timestep_preset(const TimestepPreset& preset, const StudyOptions& option
     w.attr("/", "study", "timestep");
     w.attr("/", "preset", preset.name);
     w.attr("/", "timing",
-           "cpu_seconds: wall seconds of each run's jamflow run process on 1 thread, one run "
-           "per core");
+           "cpu_seconds: CPU seconds of each run's jamflow run process on 1 thread, one run "
+           "per core (a run with cpu_from_wall = 1 was written before CPU time was recorded: "
+           "its wall seconds)");
     for (std::size_t pi = 0; pi < results.size(); ++pi) {
       const PointResult& pr = results[pi];
       char g[32];
@@ -514,9 +515,10 @@ int run_timestep_preset(const TimestepPreset& preset, const StudyOptions& option
       "(the statistical floor: the dynamics is chaotic, so runs decorrelate and differences "
       "below ~2× the floor are not resolved). The energy-balance error is |ratio − 1| "
       "(exact value 1; drift corrected, see studies/stability/README.md). CPU s is the "
-      "wall time of each run's `jamflow run` process on one thread (the sweep engine runs one "
-      "run per core); "
-      "particle-steps = N × force evaluations. Stability verdicts as in the stability "
+      "CPU time of each run's `jamflow run` process on one thread (the sweep engine runs one "
+      "run per core; \"(wall)\": a run file written before CPU time was recorded, its wall "
+      "time); particle-steps = N × force-pass equivalents (force evaluations, plus CVODE's "
+      "Jacobian work in force-pass units). Stability verdicts as in the stability "
       "study. A target is met when error + 2 × floor ≤ target for a *stable* run.\n\n";
   if (preset.name != "paper") {
     md +=

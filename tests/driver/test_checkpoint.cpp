@@ -74,7 +74,7 @@ void expect_same_run(const std::string& a_path, const std::string& b_path) {
   const auto names = a.attr_names("/summary");
   EXPECT_EQ(names, b.attr_names("/summary"));
   for (const auto& name : names) {
-    if (name.rfind("wall_seconds", 0) == 0)
+    if (name.rfind("wall_seconds", 0) == 0 || name.rfind("cpu_seconds", 0) == 0)
       continue;
     if (name.rfind("verdict_", 0) == 0 || name == "status" || name == "integrator" ||
         name == "ensemble" || name == "run_length" || name == "t_eq_method") {
@@ -104,9 +104,11 @@ int run_quietly(const RunSpec& spec, RunOptions opt, const OutputOptions& out = 
 
 // Runs the scene to the end through repeated SIGTERMs (set on the run's control from a timer
 // thread after `delay` of wall time) and --resume-style continuations from the .part file.
-// Returns the number of interruptions and the simulated times where they stopped.
+// Returns the number of interruptions and the simulated times where they stopped; `cpu`, if
+// given, gets the CPU seconds that each .part file recorded.
 std::vector<double> run_interrupted(const std::string& text, const std::string& file,
-                                    std::chrono::milliseconds delay) {
+                                    std::chrono::milliseconds delay,
+                                    std::vector<double>* cpu = nullptr) {
   const RunSpec spec = spec_of(text);
   std::vector<double> stops;
   OutputOptions out;
@@ -134,6 +136,8 @@ std::vector<double> run_interrupted(const std::string& text, const std::string& 
     EXPECT_NE(status.find("by SIGTERM"), std::string::npos) << status;
     const auto replicas = read_checkpoint(part);
     stops.push_back(replicas.back().end.state.time);
+    if (cpu)
+      cpu->push_back(replicas.back().cpu_seconds);
     out.continue_from = replicas;
   }
   ADD_FAILURE() << "the run did not finish in 200 continuations";
@@ -157,8 +161,9 @@ TEST_P(Resume, SigtermAndContinueGiveTheUninterruptedRunBitForBit) {
   const double t_eq = 100.0, t_av = 50.0;
   const std::string ref = dir.file("ref.h5"), cut = dir.file("cut.h5");
   ASSERT_EQ(run_quietly(spec_of(scene(ref, c.ensemble, c.integrator, t_eq, t_av)), {}), 0);
+  std::vector<double> cpu;
   const auto stops = run_interrupted(scene(cut, c.ensemble, c.integrator, t_eq, t_av), cut,
-                                     std::chrono::milliseconds(15));
+                                     std::chrono::milliseconds(15), &cpu);
   ASSERT_TRUE(fs::exists(cut));
   EXPECT_FALSE(fs::exists(cut + ".part"));
   ASSERT_GE(stops.size(), 2u) << "the run was hardly interrupted: the machine ran it in < 30 ms";
@@ -172,6 +177,17 @@ TEST_P(Resume, SigtermAndContinueGiveTheUninterruptedRunBitForBit) {
   H5Reader h(cut);
   EXPECT_EQ(h.attr_int("/", "resumes"), std::int64_t(stops.size()));
   EXPECT_EQ(h.attr_string("/", "solver_history"), "none");
+  // CPU seconds count the whole run, as the counters do: every part at least the one before,
+  // the finished file at least the last part.
+  ASSERT_EQ(cpu.size(), stops.size());
+  for (std::size_t k = 0; k < cpu.size(); ++k) {
+    EXPECT_TRUE(std::isfinite(cpu[k]) && cpu[k] > 0.0) << k << ": " << cpu[k];
+    if (k > 0) {
+      EXPECT_GE(cpu[k], cpu[k - 1]) << k;
+    }
+  }
+  EXPECT_GE(h.attr_double("/summary", "cpu_seconds"), cpu.back());
+  EXPECT_FALSE(h.has_attr("/summary", "cpu_seconds_note"));
   // The remaps and list rebuilds happened: strain 22 over a cell about 5 wide.
   EXPECT_GT(h.attr_double("/final", "strain"), 10.0);
   EXPECT_GT(h.attr_double("/summary", "integrator_neighbour_list_builds"), 10.0);

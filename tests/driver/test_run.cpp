@@ -1,6 +1,7 @@
 // The run driver end to end: steady-state energy balance, reproducibility, the HDF5 layout,
 // scene validation, and what a failed run leaves behind.
 #include <gtest/gtest.h>
+#include <hdf5.h>
 
 #include <unistd.h>
 #include <cmath>
@@ -271,6 +272,124 @@ TEST(Run, RunFileReadsBackTheRun) {
                 Stats(r.integrator_stats.begin(), r.integrator_stats.end()));
     }
   }
+}
+
+// Every run records its CPU seconds beside its wall seconds, and its cost in force-pass
+// equivalents beside its force evaluations (for Euler the same count).
+TEST(Run, RecordsCpuSecondsAndForcePassEquivalents) {
+  TempDir dir;
+  const std::string out = dir.file("cpu.h5");
+  RunSpec spec = spec_of(scene_text(60, 0.6, 1e-3, 0.1, 10.0, 40.0, "replicas = 2\n"),
+                         {"output.file=\"" + out + "\""});
+  RunOptions opt;
+  opt.quiet = true;
+  testing::internal::CaptureStdout();
+  ASSERT_EQ(run_and_write(spec, opt), 0);
+  const std::string printed = testing::internal::GetCapturedStdout();
+  EXPECT_NE(printed.find("cpu time"), std::string::npos) << printed;
+  EXPECT_NE(printed.find("force-pass equivalents"), std::string::npos) << printed;
+  H5Reader h(out);
+  double total = 0.0;
+  for (const std::string g : {"/replicas/0/summary", "/replicas/1/summary"}) {
+    const double cpu = h.attr_double(g, "cpu_seconds");
+    EXPECT_TRUE(std::isfinite(cpu) && cpu > 0.0) << g << ": " << cpu;
+    total += cpu;
+    EXPECT_EQ(h.attr_double(g, "integrator_force_pass_equivalents"),
+              h.attr_double(g, "integrator_force_evaluations"))
+        << g;
+  }
+  EXPECT_EQ(h.attr_double("/summary", "cpu_seconds"),
+            h.attr_double("/replicas/0/summary", "cpu_seconds"));
+  EXPECT_DOUBLE_EQ(h.attr_double("/summary", "cpu_seconds_total"), total);
+  EXPECT_FALSE(h.has_attr("/summary", "cpu_seconds_note"));
+  for (const bool everything : {true, false}) {
+    const RunFile f = read_run_file(out, everything);
+    ASSERT_EQ(f.replicas.size(), 2u);
+    EXPECT_EQ(f.replicas[0].cpu_seconds, h.attr_double("/replicas/0/summary", "cpu_seconds"));
+    EXPECT_FALSE(f.replicas[0].cpu_from_wall);
+    // Not a summary value: it describes the run.
+    EXPECT_EQ(f.replicas[0].summary.values.count("cpu_seconds"), 0u);
+  }
+}
+
+// A run file written before CPU time was recorded (no cpu_seconds) is read with its wall
+// seconds in their place, marked as such; a file written from it says so.
+TEST(Run, OlderRunFileWithoutCpuSecondsFallsBackToWallSeconds) {
+  TempDir dir;
+  const std::string out = dir.file("old.h5");
+  RunSpec spec =
+      spec_of(scene_text(60, 0.6, 1e-3, 0.1, 10.0, 20.0), {"output.file=\"" + out + "\""});
+  RunOptions opt;
+  opt.quiet = true;
+  ASSERT_TRUE(write_run_file(spec, {run_replica(spec, spec.seed, opt)}, out));
+  {
+    const hid_t file = H5Fopen(out.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(file, 0);
+    EXPECT_GE(H5Adelete_by_name(file, "/summary", "cpu_seconds", H5P_DEFAULT), 0);
+    EXPECT_GE(H5Adelete_by_name(file, "/checkpoint/replicas/0", "cpu_seconds", H5P_DEFAULT), 0);
+    EXPECT_GE(H5Adelete_by_name(file, "/checkpoint/replicas/0", "cpu_from_wall", H5P_DEFAULT), 0);
+    H5Fclose(file);
+  }
+  double wall = 0.0;
+  {
+    H5Reader h(out);
+    wall = h.attr_double("/summary", "wall_seconds");
+  }
+  for (const bool everything : {true, false}) {
+    const RunFile f = read_run_file(out, everything);
+    ASSERT_EQ(f.replicas.size(), 1u);
+    EXPECT_EQ(f.replicas[0].cpu_seconds, wall);
+    EXPECT_TRUE(f.replicas[0].cpu_from_wall);
+  }
+  const std::string again = dir.file("again.h5");
+  ASSERT_TRUE(write_run_file(spec, read_run_file(out, true).replicas, again));
+  H5Reader h(again);
+  EXPECT_EQ(h.attr_double("/summary", "cpu_seconds"), wall);
+  EXPECT_FALSE(h.attr_string("/summary", "cpu_seconds_note").empty());
+}
+
+// CVODE's budget counts force-pass equivalents, its Jacobian-vector products included: it stops
+// at the first sample at which they reach the budget, which is earlier than counting the model's
+// force passes alone would.
+TEST(Run, CvodeBudgetCountsForcePassEquivalents) {
+  const std::string text =
+      "[system]\nN = 100\nphi = 0.62\nseed = 3\n[ensemble]\nkind = \"constant_volume\"\n"
+      "[shear]\nrate = 1e-3\n[integrator]\nkind = \"cvode\"\nrtol = 1e-6\n"
+      "[run]\nt_eq = 10.0\nt_av = 40.0\nsample_every = 1.0\nthreads = 1\n";
+  RunOptions opt;
+  opt.quiet = true;
+  const ReplicaResult full = run_replica(spec_of(text), 3, opt);
+  ASSERT_EQ(full.status, "complete");
+  const auto stat = [](const ReplicaResult& r, const char* name) {
+    return statistic(r.integrator_stats, name, std::nan(""));
+  };
+  // Jacobian-vector products are a large part of the work: the equivalents count them.
+  EXPECT_GE(stat(full, "force_pass_equivalents"),
+            stat(full, "force_evaluations") + stat(full, "jtimes_evaluations"));
+  EXPECT_GT(stat(full, "jtimes_evaluations"), 0.2 * stat(full, "force_evaluations"));
+
+  const auto budget = static_cast<std::int64_t>(0.7 * stat(full, "force_pass_equivalents"));
+  const ReplicaResult cut =
+      run_replica(spec_of(text, {"run.max_force_evaluations=" + std::to_string(budget)}), 3, opt);
+  ASSERT_TRUE(stopped_by_budget(cut.status)) << cut.status;
+  EXPECT_NE(cut.status.find("force-pass equivalents"), std::string::npos) << cut.status;
+  const double equivalents = stat(cut, "force_pass_equivalents");
+  RecordProperty("cut", "equivalents " + std::to_string(equivalents) + ", force evaluations " +
+                            std::to_string(stat(cut, "force_evaluations")) + ", jtimes " +
+                            std::to_string(stat(cut, "jtimes_evaluations")) + ", jtimes setups " +
+                            std::to_string(stat(cut, "jtimes_setups")));
+  EXPECT_GE(equivalents, double(budget));
+  EXPECT_GE(equivalents, stat(cut, "force_evaluations") + stat(cut, "jtimes_evaluations"));
+  // Counting force passes alone, the run would have gone on.
+  EXPECT_LT(stat(cut, "force_evaluations"), double(budget));
+  // Within one sample past the budget: the same run ended one sample earlier had not reached it.
+  const std::size_t samples = cut.series.samples.size();  // t = 0, 1, ..., samples - 1
+  ASSERT_GT(samples, 16u);
+  const double t_before = double(samples - 2);
+  const ReplicaResult before = run_replica(
+      spec_of(text, {"run.t_av=" + std::to_string(t_before - 10.0), "run.blocks=4"}), 3, opt);
+  ASSERT_EQ(before.series.samples.size(), samples - 1);
+  EXPECT_LT(stat(before, "force_pass_equivalents"), double(budget));
 }
 
 std::string config_error(const std::string& text, const std::vector<std::string>& sets = {}) {

@@ -50,7 +50,7 @@ if [ -s e2e/report.md ] && grep -q "^| Figs. 2, 3, 4, 7: .* | hard-sphere |" e2e
 else
   bad "report.md: $(head -c 600 e2e/report.md 2>/dev/null)"
 fi
-# The CPU hours of each part, a study in stages (ensemble) included: the runs' own wall seconds.
+# The CPU hours of each part, a study in stages (ensemble) included: the runs' own CPU seconds.
 hours=$(sed -n 's/^| .* | \(ensemble\|hard-sphere\|finite-size\) | .* | \([0-9.e+-]*\) | \[.*$/\1=\2/p' e2e/report.md)
 nonzero=$(echo "$hours" | awk -F= '$2 > 0' | wc -l)
 [ "$nonzero" -eq 3 ] && ok "every part's CPU hours are counted: $(echo $hours)" ||

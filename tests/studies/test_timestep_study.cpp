@@ -56,6 +56,13 @@ TEST(TimestepStudy, TinyQuickPreset) {
   EXPECT_EQ(r.attr_int("/points/p00", "reference"), 0);
   const std::string g005 = "/points/p00/runs/r001", g15 = "/points/p00/runs/r002";
   EXPECT_DOUBLE_EQ(r.attr_double(g005, "step"), 0.05);
+  // The cost columns: each run's CPU seconds (its file recorded them) and particle-steps.
+  for (const std::string& g : {std::string("/points/p00/runs/r000"), g005}) {
+    const double cpu = r.attr_double(g, "cpu_seconds");
+    EXPECT_TRUE(std::isfinite(cpu) && cpu > 0.0) << g << ": " << cpu;
+    EXPECT_EQ(r.attr_int(g, "cpu_from_wall"), 0) << g;
+    EXPECT_GT(r.attr_double(g, "particle_steps"), 0.0) << g;
+  }
   // A run enters the errors only if it is stable and passes its own verdicts; this tiny system
   // may still drift (not steady) or have blocks shorter than 2 tau (correlated, one replica):
   // then the report lists it among the runs left out, and its error is not a conclusion.

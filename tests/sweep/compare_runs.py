@@ -1,6 +1,7 @@
 #!/usr/bin/python3
 """Compares jamflow run files bit for bit: every dataset and every attribute, except the ones
-that record when and how fast a run ran (created, wall_seconds, wall_seconds_total).
+that record when and how fast a run ran (created, wall_seconds, wall_seconds_total,
+cpu_seconds, cpu_seconds_total).
 
 usage: compare_runs.py [--ignore ATTR]... A.h5 B.h5 [A2.h5 B2.h5 ...]
 exit 0 when every pair is the same bits
@@ -10,7 +11,7 @@ import sys
 import h5py
 import numpy as np
 
-SKIP_ATTRS = {"created", "wall_seconds", "wall_seconds_total"}
+SKIP_ATTRS = {"created", "wall_seconds", "wall_seconds_total", "cpu_seconds", "cpu_seconds_total"}
 
 
 def attrs_equal(a, b, where, problems):

@@ -81,6 +81,20 @@ rows=$(($(wc -l < table.csv) - 1))
 [ "$rows" -eq 6 ] && ok "6 rows collected" || bad "expected 6 rows, found $rows"
 head -1 table.csv | grep -q "^point,shear.rate,integrator.dt,system.phi,ensemble,N,gdot,phi,phi_err" &&
   ok "table header" || bad "table header: $(head -1 table.csv)"
+# The cost columns: CPU seconds recorded by every run (not wall seconds standing in), and the
+# force-pass equivalents (Euler: its force evaluations).
+if $py -c 'import csv, math
+rows = list(csv.DictReader(open("table.csv")))
+assert rows
+for r in rows:
+    cpu = float(r["cpu_seconds"])
+    assert math.isfinite(cpu) and cpu > 0, r
+    assert r["cpu_from_wall"] == "0", r
+    assert float(r["force_pass_equivalents"]) == float(r["force_evaluations"]) > 0, r'; then
+  ok "table cost columns: cpu_seconds, force_pass_equivalents"
+else
+  bad "table cost columns: $(head -2 table.csv)"
+fi
 if "$jamflow" sweep six.toml --collect table.h5 > /dev/null &&
   $py -c 'import csv, sys, h5py, numpy as np
 rows = list(csv.DictReader(open("table.csv")))
