@@ -799,6 +799,15 @@ IntegratorSetting cvode_setting(double rtol, double atol, long max_steps) {
   return s;
 }
 
+IntegratorSetting rkc_setting(double overlaps, double delta) {
+  IntegratorSetting s;
+  s.family = "rkc";
+  s.label = "rkc atol=" + short_num(overlaps) + " delta";
+  s.tolerance = overlaps;
+  s.settings = IntegratorSettings("rkc").set("atol", overlaps * delta);
+  return s;
+}
+
 StudyScene scene_toml(const StatePoint& p, const IntegratorSetting& setting, double t_eq,
                       double t_av, double sample_every, int blocks) {
   const double se = commensurate(sample_every, setting.dt);

@@ -266,10 +266,10 @@ struct StatePoint {
 // One integrator configuration: its typed [integrator] settings and a label. `dt` is the same
 // double as settings' "dt", which the run uses unchanged.
 struct IntegratorSetting {
-  std::string family;      // euler | respa | cvode
+  std::string family;      // euler | respa | cvode | rkc
   std::string label;       // "euler dt=0.5", "respa particles x4 dt=1", "cvode rtol=1e-5"
   double dt = 0.0;         // nominal step (0: adaptive)
-  double tolerance = 0.0;  // cvode rtol
+  double tolerance = 0.0;  // cvode rtol; rkc atol in units of the typical overlap
   IntegratorSettings settings;
 };
 IntegratorSetting euler_setting(double dt);
@@ -279,6 +279,9 @@ IntegratorSetting respa_setting(double dt, int n_inner, const std::string& inner
 // CVODE with relative tolerance rtol and absolute tolerance atol (<= 0: CVODE's default);
 // max_steps > 0 caps CVODE's steps per advance (a budget, not physics).
 IntegratorSetting cvode_setting(double rtol, double atol, long max_steps = 0);
+// RKC (integrators/rkc.hpp) at its default rtol, with atol = `overlaps` x delta, delta the
+// typical overlap (a length in units of a); `tolerance` holds `overlaps`.
+IntegratorSetting rkc_setting(double overlaps, double delta);
 
 // The scene for a state point, integrator and durations. sample_every is made commensurate
 // with the step (the exact dt the run uses), and t_eq, t_av whole multiples of it (t_av at

@@ -46,6 +46,7 @@ SoftnessPreset softness_preset(const std::string& name) {
     p.scan_dts = {0.002, 0.01, 0.05, 0.2, 0.4, 1.0, 1.5};
     p.respa_dts = {1.0};
     p.cvode_tols = {1e-4};
+    p.rkc_overlaps = {0.1};
     p.cvode_max_steps = 20000;
     p.t_prep = 200.0;
     p.strain_prep = 0.02;
@@ -75,6 +76,7 @@ SoftnessPreset softness_preset(const std::string& name) {
     p.scan_dts = {0.001, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 1.0, 1.5};
     p.respa_dts = {0.008, 0.04, 0.4, 1.0, 2.0};
     p.cvode_tols = {1e-3, 1e-5};
+    p.rkc_overlaps = {1e-2, 0.1, 1.0};
     p.t_prep = 500.0;
     p.strain_prep = 0.05;
     p.t_scan = 1500.0;
@@ -100,6 +102,7 @@ SoftnessPreset softness_preset(const std::string& name) {
                   0.3,    0.4,   0.5,   1.0,   1.2,  1.5,  2.0,  3.0};
     p.respa_dts = {0.004, 0.008, 0.04, 0.2, 0.4, 1.0, 1.2, 2.0, 3.0};
     p.cvode_tols = {1e-3, 1e-4, 1e-5, 1e-6};
+    p.rkc_overlaps = {1e-3, 1e-2, 0.1, 0.3, 1.0};
     p.t_prep = 5000.0;
     p.strain_prep = 0.5;
     p.t_scan = 10000.0;
@@ -231,7 +234,8 @@ std::vector<double> respa_dts_for(const SoftnessPreset& p, double alpha) {
 }
 
 // Every integrator setting of phase A at overlap delta; the first is the smallest Euler step
-// (the accuracy reference). CVODE's atol = rtol x delta (the timestep study's rule).
+// (the accuracy reference). CVODE's atol = rtol x delta (the timestep study's rule), RKC's atol
+// = rkc_overlaps x delta.
 std::vector<IntegratorSetting> settings_for(const SoftnessPreset& p, double alpha, double delta) {
   std::vector<IntegratorSetting> out;
   for (double dt : dts_for(p, alpha))
@@ -240,13 +244,17 @@ std::vector<IntegratorSetting> settings_for(const SoftnessPreset& p, double alph
     out.push_back(respa_setting(dt, p.respa_inner, "particles", "euler"));
   for (double tol : p.cvode_tols)
     out.push_back(cvode_setting(tol, tol * delta, p.cvode_max_steps));
+  for (double overlaps : p.rkc_overlaps)
+    out.push_back(rkc_setting(overlaps, delta));
   return out;
 }
 
-// The same setting at another overlap (CVODE's atol follows delta).
+// The same setting at another overlap (CVODE's and RKC's atol follow delta).
 IntegratorSetting setting_at(const SoftnessPreset& p, const IntegratorSetting& s, double delta) {
   if (s.family == "cvode")
     return cvode_setting(s.tolerance, s.tolerance * delta, p.cvode_max_steps);
+  if (s.family == "rkc")
+    return rkc_setting(s.tolerance, delta);
   return s;
 }
 
@@ -535,6 +543,13 @@ double model_seconds(const SoftnessPreset& p, double alpha, const IntegratorSett
   double sec = 0.0;
   if (s.family == "cvode") {
     sec = n * t * model_cvode_seconds(alpha, pressure);
+  } else if (s.family == "rkc") {
+    // Adaptive: about 1 force pass per tau_0 (0.4-2.8 measured at N = 1000, alpha_r = 2,
+    // atol = 0.01-1 delta, benchmarks/README.md), each 1.2x an Euler pass.
+    double steps = n * t * 1.0;
+    if (budget && p.budget_particle_steps > 0.0)
+      steps = std::min(steps, p.budget_particle_steps);
+    sec = 1.2 * steps * model_seconds_per_step(alpha);
   } else {
     // The integrator's own nominal force passes per unit time. Every run of this study is at
     // constant pressure (StatePoint's xi_V): the piston is what RESPA's cost depends on.

@@ -24,11 +24,13 @@ struct SoftnessPreset {
   // Phase A (the fastest stable integrator): at both ends of each alpha_r's overlap range,
   // J = targets_j.front(), every setting run t_scan long from one prepared state: explicit
   // Euler at scan_dts, RESPA with the particles on the inner level (respa_inner Euler
-  // sub-steps) at the outer steps respa_dts, CVODE at cvode_tols (atol = rtol x delta).
+  // sub-steps) at the outer steps respa_dts, CVODE at cvode_tols (atol = rtol x delta), RKC at
+  // atol = rkc_overlaps x delta (its default rtol).
   std::vector<double> scan_dts;
   int respa_inner = 4;
   std::vector<double> respa_dts;
   std::vector<double> cvode_tols;
+  std::vector<double> rkc_overlaps;
   long cvode_max_steps = 0;  // CVODE steps per sample interval (0: CVODE's default)
   // Preparation from a random state at the hard-sphere law's phi: max(t_prep, strain_prep /
   // gdot, relax_pressure / P), so that the scans start relaxed.

@@ -77,6 +77,7 @@ TimestepPreset timestep_preset(const std::string& name) {
     p.euler_dts = {0.02, 0.1, 0.3, 0.5, 1.0, 1.5};
     p.respa = {{{"particles", 4, "euler"}, {1.0}}, {{"piston", 4, "euler"}, {0.2}}};
     p.cvode_tols = {1e-3, 1e-5};
+    p.rkc_overlaps = {1e-2, 0.1, 1.0};
     p.budget_particle_steps = 2.5e8;  // about 10 s
     p.cvode_max_steps = 20000;
   } else if (name == "standard") {
@@ -99,6 +100,7 @@ TimestepPreset timestep_preset(const std::string& name) {
                {{"piston", 4, "euler"}, {0.1, 0.2, 0.4}},
                {{"particles", 2, "heun"}, {0.2, 0.4, 0.8}}};
     p.cvode_tols = {1e-3, 1e-4, 1e-5, 1e-6};
+    p.rkc_overlaps = {1e-2, 0.1, 0.3, 1.0};
     p.budget_particle_steps = 1.5e10;  // about 600 s
   } else if (name == "paper") {
     const std::int64_t n = 1000;
@@ -116,6 +118,7 @@ TimestepPreset timestep_preset(const std::string& name) {
                {{"piston", 4, "euler"}, {0.1, 0.2, 0.4, 0.5}},
                {{"particles", 2, "heun"}, {0.2, 0.4, 0.8, 1.0}}};
     p.cvode_tols = {1e-3, 1e-4, 1e-5, 1e-6, 1e-7};
+    p.rkc_overlaps = {1e-3, 1e-2, 0.1, 0.3, 1.0};
   } else {
     throw ConfigError("--preset " + name + "; allowed quick, standard, paper");
   }
@@ -153,7 +156,7 @@ double duration(double strain, double gdot, double t_min) {
 std::string family_label(const IntegratorSetting& s) {
   const std::string l = s.label;
   const auto cut = l.rfind(' ');
-  return s.family == "cvode" ? std::string("cvode") : l.substr(0, cut);
+  return s.family == "cvode" || s.family == "rkc" ? s.family : l.substr(0, cut);
 }
 
 void compute_errors(PointResult& pr) {
@@ -392,6 +395,8 @@ int run_timestep_preset(const TimestepPreset& preset, const StudyOptions& option
         1e-9, 1.0);
     for (double tol : preset.cvode_tols)
       pr.settings.push_back(cvode_setting(tol, tol * delta, preset.cvode_max_steps));
+    for (double overlaps : preset.rkc_overlaps)
+      pr.settings.push_back(rkc_setting(overlaps, delta));
     pr.t_eq = duration(preset.strain_eq, pr.point.gdot, preset.t_eq_min);
     pr.t_av = duration(preset.strain_av, pr.point.gdot, preset.t_av_min);
     pr.runs.resize(pr.settings.size());

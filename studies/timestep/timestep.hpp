@@ -24,6 +24,8 @@ struct TimestepPreset {
   std::vector<double> euler_dts;                 // the smallest is the reference
   std::vector<RespaScan> respa;
   std::vector<double> cvode_tols;
+  // RKC's atol in units of the typical overlap delta = P^(1/(alpha_r - 1)) (rtol its default).
+  std::vector<double> rkc_overlaps;
   // Particle-steps (N x force evaluations) allowed per run but the reference (0: none); over it
   // a run is "incomplete". 2.5e8 is about 10 s of one core (40 ns each).
   double budget_particle_steps = 0.0;

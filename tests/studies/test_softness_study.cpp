@@ -102,6 +102,7 @@ TEST(SoftnessStudy, TinyQuickPreset) {
   p.scan_dts = {0.05, 1.5};
   p.respa_dts = {};
   p.cvode_tols = {1e-3};
+  p.rkc_overlaps = {0.1};
   p.t_prep = 200.0;
   p.strain_prep = 0.0;
   p.t_scan = 240.0;
@@ -126,7 +127,7 @@ TEST(SoftnessStudy, TinyQuickPreset) {
   ASSERT_EQ(run_softness_preset(p, o), 0);
   // Every run is a point file of the sweep engine; a rerun reads them back, computing nothing.
   const auto files = point_files(dir);
-  EXPECT_EQ(files.size(), 2u + 6u + 2u + 2u);  // preps, scans, pressure scans, reference
+  EXPECT_EQ(files.size(), 2u + 8u + 2u + 2u);  // preps, scans, pressure scans, reference
   o.no_plots = true;                           // the plots of the first run stay
   ASSERT_EQ(run_softness_preset(p, o), 0);
   EXPECT_EQ(point_files(dir), files);
@@ -142,7 +143,8 @@ TEST(SoftnessStudy, TinyQuickPreset) {
   H5Reader r(dir + "/softness.h5");
   const std::string a = "/alphas/a00";
   EXPECT_DOUBLE_EQ(r.attr_double(a, "alpha"), 2.0);
-  // Settings in order: Euler 0.05, Euler 1.5, CVODE 1e-3. Euler 1.5 is not stable.
+  // Settings in order: Euler 0.05, Euler 1.5, CVODE 1e-3, RKC at atol 0.1 delta. Euler 1.5 is not
+  // stable.
   bool usable = true;
   for (const std::string end : {"/scan_hi", "/scan_lo"}) {
     EXPECT_EQ(r.attr_string(a + end + "/runs/r000", "setting"), "euler dt=0.05");
@@ -161,7 +163,7 @@ TEST(SoftnessStudy, TinyQuickPreset) {
   if (r.attr_int(a, "integrator_verified") == 1) {
     double best = std::numeric_limits<double>::infinity();
     std::string best_label;
-    for (int k = 0; k < 3; ++k) {
+    for (int k = 0; k < 4; ++k) {
       const std::string c = a + "/candidates/c" + std::to_string(k);
       if (r.attr_int(c, "ok") == 1 && r.attr_double(c, "seconds_per_tau_particle") < best) {
         best = r.attr_double(c, "seconds_per_tau_particle");
@@ -170,6 +172,7 @@ TEST(SoftnessStudy, TinyQuickPreset) {
     }
     EXPECT_EQ(r.attr_string(a, "integrator"), best_label);
     EXPECT_NE(best_label, "euler dt=1.5");
+    RecordProperty("chosen", best_label);
   }
   // The common reference: harmonic, a packing fraction of a flowing dense suspension.
   const std::string ref = "/reference/J1";

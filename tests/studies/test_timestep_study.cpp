@@ -23,6 +23,7 @@ TEST(TimestepStudy, TinyQuickPreset) {
   p.euler_dts = {0.02, 0.05, 1.5};
   p.respa.clear();
   p.cvode_tols.clear();
+  p.rkc_overlaps = {0.1};         // one RKC setting, run r003
   p.budget_particle_steps = 0.0;  // no budget: the runs are short
   p.t_prep_min = 3000.0;          // compressed until steady: the runs must pass the steady verdict
   p.strain_prep = 0.0;
@@ -87,6 +88,14 @@ TEST(TimestepStudy, TinyQuickPreset) {
       EXPECT_NE(left_out.find("euler dt=0.02: " + v_ref), std::string::npos) << left_out;
     }
   }
+  // RKC runs beside the fixed steps, at atol = 0.1 overlaps, and is not unstable.
+  const std::string grkc = "/points/p00/runs/r003";
+  EXPECT_EQ(r.attr_string(grkc, "family"), "rkc");
+  EXPECT_EQ(r.attr_string(grkc, "curve"), "rkc");
+  EXPECT_DOUBLE_EQ(r.attr_double(grkc, "tolerance"), 0.1);
+  const std::string vrkc = r.attr_string(grkc, "verdict");
+  EXPECT_TRUE(vrkc == "stable" || vrkc == "not steady" || vrkc == "correlated") << vrkc;
+  EXPECT_GT(r.attr_double(grkc, "cpu_seconds"), 0.0);
   EXPECT_DOUBLE_EQ(r.attr_double(g15, "step"), 1.5);
   const std::string v15 = r.attr_string(g15, "verdict");
   EXPECT_TRUE(v15 == "oscillating" || v15 == "diverged") << v15;
