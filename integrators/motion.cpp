@@ -180,61 +180,20 @@ void EquationOfMotion::rhs_at_reference(double* ydot) {
     ydot[3 * n_] = ensemble_.volume_rate(ev.pressure) / v_ref_;
 }
 
-template <class Pair>
-void EquationOfMotion::collect_contacts(const Pair& pair) {
+void EquationOfMotion::collect_contacts() {
   const State& st = model_.state();
-  const NeighbourList& list = model_.neighbour_list();
   const Evaluation& ev = model_.evaluate();
-  const Eigen::Matrix3d h = st.box.h();
-  const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
-  const auto& shift = NeighbourList::shifts();
-  const std::uint32_t* start = list.start().data();
-  const std::uint32_t* entries = list.entries().data();
-  const double* sx = st.x();
-  const double* sy = st.y();
-  const double* sz = st.z();
-  const double* d = st.diameter.data();
   const std::size_t n = n_;
-
-  contacts_.clear();
-  normal_block_.assign(6 * n, 0.0);
-  // g_i = sum_j U''(r_ij) r_ij: the force change under an affine dilation is -(dl/l) g.
-  std::vector<double> g(piston_ ? 3 * n : 0, 0.0);
-  double virial = 0.0, curvature = 0.0;  // sum r.f and sum U'' r^2 over contacts
-  for (std::size_t i = 0; i < n; ++i) {
-    for (std::uint32_t k = start[i]; k < start[i + 1]; ++k) {
-      const std::uint32_t e = entries[k];
-      const std::uint32_t j = e >> NeighbourList::kCodeBits;
-      const auto& sh = shift[e & NeighbourList::kCodeMask];
-      const double dx = sx[i] - sx[j] + sh[0];
-      const double dy = sy[i] - sy[j] + sh[1];
-      const double dz = sz[i] - sz[j] + sh[2];
-      const double rx = hxx * dx + hxy * dy, ry = hyy * dy, rz = hzz * dz;
-      const double r2 = rx * rx + ry * ry + rz * rz;
-      const double a = 0.5 * (d[i] + d[j]);
-      if (r2 >= a * a)
-        continue;
-      const double r = std::sqrt(r2);
-      const PairValue pv = pair(r, a);
-      const double kp = pair.stiffness(r, a);
-      const double nx = rx / r, ny = ry / r, nz = rz / r;
-      contacts_.push_back(Contact{std::uint32_t(i), j, nx, ny, nz, kp / kXiS, pv.f_over_r / kXiS});
-      const std::array<double, 6> nn{nx * nx, ny * ny, nz * nz, nx * ny, nx * nz, ny * nz};
-      for (int c = 0; c < 6; ++c) {
-        normal_block_[6 * i + c] += nn[c] * kp / kXiS;
-        normal_block_[6 * j + c] += nn[c] * kp / kXiS;
-      }
-      if (piston_) {
-        const double gr[3] = {kp * rx, kp * ry, kp * rz};
-        for (int c = 0; c < 3; ++c) {
-          g[c * n + i] += gr[c];
-          g[c * n + j] -= gr[c];
-        }
-        virial += pv.f_over_r * r2;
-        curvature += kp * r2;
-      }
-    }
+  const double alpha = model_.force_field().alpha();
+  if (alpha == 2.0) {
+    kernels::collect_contacts(HarmonicPair{}, st, model_.neighbour_list(), kXiS, piston_,
+                              stiffness_);
+  } else {
+    kernels::collect_contacts(PowerPair{alpha}, st, model_.neighbour_list(), kXiS, piston_,
+                              stiffness_);
   }
+  const std::vector<double>& g = stiffness_.g;
+  const double virial = stiffness_.virial, curvature = stiffness_.curvature;
 
   if (piston_) {
     // u fixed, w -> w + dw: every pair vector dilates by eps = dl/l = V_ref dw / (3 V).
@@ -261,35 +220,17 @@ void EquationOfMotion::jacobian_setup(double t, const double* y) {
     return;  // psetup and the first jtsetup of a step come at the same point
   if (!at_last)
     apply(t, y);
-  const double alpha = model_.force_field().alpha();
-  if (alpha == 2.0) {
-    collect_contacts(HarmonicPair{});
-  } else {
-    collect_contacts(PowerPair{alpha});
-  }
+  collect_contacts();
   jacobian_ready_ = true;
   jacobian_at_last_ = true;
 }
 
 void EquationOfMotion::jacobian_times(const double* v, double* jv) const {
   const std::size_t n = n_;
-  std::fill(jv, jv + size(), 0.0);
-  // -H v / xi_s over the contacts: K dv = U'' (n.dv) n - (f/r) (dv - (n.dv) n).
-  for (const Contact& c : contacts_) {
-    const double dvx = v[c.i] - v[c.j];
-    const double dvy = v[n + c.i] - v[n + c.j];
-    const double dvz = v[2 * n + c.i] - v[2 * n + c.j];
-    const double along = c.nx * dvx + c.ny * dvy + c.nz * dvz;
-    const double kx = (c.k_par + c.k_perp) * along * c.nx - c.k_perp * dvx;
-    const double ky = (c.k_par + c.k_perp) * along * c.ny - c.k_perp * dvy;
-    const double kz = (c.k_par + c.k_perp) * along * c.nz - c.k_perp * dvz;
-    jv[c.i] -= kx;
-    jv[n + c.i] -= ky;
-    jv[2 * n + c.i] -= kz;
-    jv[c.j] += kx;
-    jv[n + c.j] += ky;
-    jv[2 * n + c.j] += kz;
-  }
+  // -H v / xi_s over the contacts (lib/kernels/contacts.hpp).
+  kernels::contact_hessian_product(stiffness_, n, v, jv);
+  if (piston_)
+    jv[3 * n] = 0.0;
   if (!symmetric_ && gdot_ != 0.0) {
     for (std::size_t i = 0; i < n; ++i)
       jv[i] += gdot_ * v[n + i];
@@ -310,7 +251,7 @@ void EquationOfMotion::jacobian_times(const double* v, double* jv) const {
 void EquationOfMotion::preconditioner_setup(double gamma) {
   inv_block_.resize(9 * n_);
   for (std::size_t i = 0; i < n_; ++i) {
-    const double* b = &normal_block_[6 * i];
+    const double* b = &stiffness_.normal_block[6 * i];
     Eigen::Matrix3d m;
     m << 1.0 + gamma * b[0], gamma * b[3], gamma * b[4],  //
         gamma * b[3], 1.0 + gamma * b[1], gamma * b[5],   //

@@ -35,6 +35,7 @@
 
 #include "ensembles/ensemble.hpp"
 #include "lib/error.hpp"
+#include "lib/kernels/contacts.hpp"
 #include "lib/model.hpp"
 
 namespace jamflow {
@@ -82,14 +83,8 @@ class EquationOfMotion {
   void preconditioner_solve(const double* r, double* z) const;
 
  private:
-  struct Contact {
-    std::uint32_t i, j;
-    double nx, ny, nz;  // unit vector along r_ij
-    double k_par;       // U'' / xi_s
-    double k_perp;      // (f / r) / xi_s: the tension term -(f/r)(I - n n^T) of the Hessian
-  };
-  template <class Pair>
-  void collect_contacts(const Pair& pair);
+  // The contact data and the piston couplings of the Model's current state.
+  void collect_contacts();
 
   Model& model_;
   const Ensemble& ensemble_;
@@ -107,11 +102,10 @@ class EquationOfMotion {
   bool have_last_ = false;
 
   bool jacobian_ready_ = false;
-  bool jacobian_at_last_ = false;  // the data belong to the last point written
-  std::vector<Contact> contacts_;
-  std::vector<double> normal_block_;  // 6 per particle: sum_j U'' n n^T / xi_s (xx yy zz xy xz yz)
-  std::vector<double> col_uw_;        // d(du/dt)/dw, 3N
-  std::vector<double> row_wu_;        // d(dw/dt)/du, 3N
+  bool jacobian_at_last_ = false;        // the data belong to the last point written
+  kernels::ContactStiffness stiffness_;  // the contacts (lib/kernels/contacts.hpp), over xi_s
+  std::vector<double> col_uw_;           // d(du/dt)/dw, 3N
+  std::vector<double> row_wu_;           // d(dw/dt)/du, 3N
   double j_ww_ = 0.0;
   std::vector<double> inv_block_;  // 9 per particle
   double inv_ww_ = 1.0;
