@@ -85,6 +85,9 @@ std::string iso_now() {
 constexpr double kMaxSteps = 1e12;
 constexpr double kMaxParticleSteps = 1e15;  // about 230 days at 20 ns per particle-step
 constexpr double kMaxSamples = 1e9;
+// The cell's tilt is the strain less whole remaps: past 1e9 its round-off exceeds 1e-7 cell
+// lengths, and the Lees–Edwards images drift apart step by step.
+constexpr double kMaxStrain = 1e9;
 constexpr std::int64_t kMaxForceEvaluations = 1000000000000000;  // 1e15
 constexpr double kBytesPerSample = 3.0 * sizeof(Sample);         // the series, its copies at output
 // Measured: the peak resident size grows by 740 bytes per particle from N = 1e5 to 4e5 (lists,
@@ -253,6 +256,11 @@ RunSpec parse_run_spec(const Scene& scene) {
                         fmt(std::round(steps * double(spec.n) * 20e-9 / 86400.0)) +
                         " days on one core); allowed at most " + fmt(kMaxParticleSteps));
     }
+  }
+  if (const double strain = spec.shear_rate * run_length_bound(spec); !(strain <= kMaxStrain)) {
+    throw ConfigError("[shear] rate = " + fmt(spec.shear_rate) + " shears the cell by " +
+                      short_num(strain) + " over (t_eq + t_av) = " + fmt(run_length_bound(spec)) +
+                      "; allowed a strain of at most " + fmt(kMaxStrain) + " per replica");
   }
   // Memory up front: the samples and the particles (measured per particle, with the
   // checkpoint's copy) against what the machine has.

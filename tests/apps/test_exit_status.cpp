@@ -164,6 +164,26 @@ TEST_F(ExitStatus, BadSceneAndInitAreBadInputBeforeAnyRun) {
   EXPECT_FALSE(fs::exists(dir_ / "jamflow.h5.part"));
 }
 
+// A step that shears by more than a cell length (gdot dt = 2 and 20) runs (it crashed with
+// SIGSEGV in the neighbour list); a strain beyond the tilt's round-off is bad input.
+TEST_F(ExitStatus, FastShearRunsAndAStrainBeyondRoundOffIsBadInput) {
+  const std::string scene = file("fast.toml",
+                                 "[system]\nN = 60\nphi = 0.5\n"
+                                 "[ensemble]\nkind = \"constant_volume\"\n"
+                                 "[shear]\nrate = 1e-3\n"
+                                 "[integrator]\nkind = \"euler\"\ndt = 0.1\n"
+                                 "[run]\nt_eq = 0\nt_av = 2\nsample_every = 0.1\n");
+  for (const char* rate : {"shear.rate=20", "shear.rate=200"}) {
+    const Outcome o = run({"run", scene, "--set", rate, "-o", "fast.h5", "--force"});
+    EXPECT_EQ(o.status, 0) << rate << ": " << o.err;
+    EXPECT_NE(o.err.find("not stable"), std::string::npos) << rate << ": " << o.err;
+  }
+  expect_usage_error(run({"run", scene, "--set", "shear.rate=1e100", "-o", "huge.h5"}),
+                     "[shear] rate = 1e+100 shears the cell by 2e+100 over (t_eq + t_av) = 2; "
+                     "allowed a strain of at most 1e+09");
+  EXPECT_FALSE(fs::exists(dir_ / "huge.h5.part"));
+}
+
 // Run files that libhdf5 cannot read: a truncated copy of a real run, and a corrupt file on
 // which libhdf5 1.10.8 itself crashes (tests/analysis/data/README.md). Each is bad input,
 // named in one line; the crash stays in the process that read the file.

@@ -213,6 +213,23 @@ def test_simulation_arrays_and_a_shear_rate_ramp():
     assert sim.statistics["force_evaluations"] > 0
 
 
+def test_a_step_that_shears_by_more_than_a_cell_runs():
+    # gdot dt = 5: the cell is remapped several times per step (this crashed the interpreter).
+    sim = jamflow.Simulation(SMALL, seed=5)
+    sim.shear_rate = 50.0
+    sim.advance(3.0)
+    assert sim.observables["strain"] == pytest.approx(150.0, rel=1e-9)
+    assert np.isfinite(sim.forces).all()
+    scene = jamflow.Scene(SMALL)
+    scene.update({"shear.rate": 20.0, "run.t_eq": 0.0, "run.t_av": 4.0})
+    result = jamflow.run(scene)
+    assert result.summary["verdict_stable"].startswith("fail")
+    # A strain whose fraction round-off has lost: a failed run, raised, not a crash.
+    sim.shear_rate = 1e100
+    with pytest.raises(jamflow.IntegrationError, match="tilt"):
+        sim.advance(1.0)
+
+
 # ---- interruption ---------------------------------------------------------------------------
 
 
