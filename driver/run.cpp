@@ -10,6 +10,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <limits>
 #include <stdexcept>
 #include <thread>
@@ -402,7 +403,9 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
   for (const auto& [name, series_ptr] : correlated) {
     const double tau = integrated_autocorrelation(*series_ptr) * spec.sample_every;
     out[std::string("tau_") + name] = tau;
-    if (out["block_length"] < limits.decorrelation_blocks * tau && too_short.empty()) {
+    if (!std::isfinite(tau) && too_short.empty()) {
+      too_short = std::string("tau_") + name + " = " + short_num(tau) + " not finite";
+    } else if (!(out["block_length"] >= limits.decorrelation_blocks * tau) && too_short.empty()) {
       // How much too small the block errors are, for correlations that decay exponentially
       // (more if slower).
       const double low = 1.0 - block_error_ratio(out["block_length"], tau);
@@ -420,8 +423,20 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
     sum.verdicts[name] = pass ? "pass" : "fail: " + why;
     out[name] = pass ? 1.0 : 0.0;
   };
+  // A value that is not a number (0 / 0 with no contacts, say) fails the verdict that rests on
+  // it: NaN would pass every test written as !(x > limit).
+  const auto not_finite = [&](std::initializer_list<const char*> keys) {
+    std::string bad;
+    for (const char* key : keys) {
+      const auto it = out.find(key);
+      if (it != out.end() && !std::isfinite(it->second))
+        bad += (bad.empty() ? "" : ", ") + std::string(key) + " = " + short_num(it->second);
+    }
+    return bad.empty() ? bad : bad + " not finite";
+  };
   // decorrelated: every block at least 2 tau long.
-  verdict("decorrelated", too_short.empty(), too_short + "; lengthen t_av");
+  const bool undefined_tau = too_short.find(" not finite") != std::string::npos;
+  verdict("decorrelated", too_short.empty(), too_short + (undefined_tau ? "" : "; lengthen t_av"));
 
   // steady: no significant trend of the block means.
   std::string drift;
@@ -443,14 +458,25 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
       }
     }
   }
-  verdict("steady", drift.empty(), drift + "; lengthen t_eq");
+  if (const std::string bad = not_finite({"sigma_xy", "sigma_xy_err", "pressure", "pressure_err",
+                                          "phi", "phi_err", "eta", "eta_err", "mu", "mu_err", "J"});
+      drift.empty() && !bad.empty())
+    verdict("steady", false, bad);
+  else
+    verdict("steady", drift.empty(), drift + "; lengthen t_eq");
 
   // stable: energy balance and no step-to-step oscillation of the forces.
   const EnergyBalance eb = energy_balance(series.samples, spec.t_eq, gdot, imposed, nb);
   out["energy_balance_corrected"] = eb.ratio;
   out["energy_balance_err"] = eb.error;
   std::string unstable, unchecked;
-  if (eb.valid) {
+  if (gdot > 0.0 && !std::isfinite(out["energy_balance"])) {
+    char text[200];
+    std::snprintf(text, sizeof text,
+                  "energy balance = %s not finite (work %.4g / dissipation %.4g)",
+                  short_num(out["energy_balance"]).c_str(), bw.mean, bl.mean);
+    unstable = text;
+  } else if (eb.valid) {
     const double allowed = std::max(limits.balance_tolerance, limits.balance_sigmas * eb.error);
     if (eb.residual > allowed) {
       char text[200];
