@@ -163,11 +163,21 @@ void check_positive(const std::string& where, const std::string& name, double v)
     range_error(where, name, v, "must be finite");
   if (!(v > 0.0))
     range_error(where, name, v, "must be > 0");
+  // A subnormal value (1e-320) loses its digits, and its logarithm, inverse square (a weight)
+  // or ratios overflow in the fits: refused here, naming the row, not after fitting.
+  if (!std::isnormal(v))
+    range_error(where, name, v, "must be at least 2.2250738585072014e-308");
+}
+
+// J = gdot / P of a row whose gdot and P are each in range may still overflow or underflow.
+void check_viscous_number(const std::string& where, double j) {
+  if (!std::isnormal(j) || !(j > 0.0))
+    range_error(where, "J = gdot / P", j, "must be a finite number of at least 2.2e-308");
 }
 
 void check_phi(const std::string& where, double v) {
-  if (!std::isfinite(v) || !(v > 0.0 && v < 1.0))
-    range_error(where, "phi", v, "0 < phi < 1");
+  if (!std::isnormal(v) || !(v > 0.0 && v < 1.0))
+    range_error(where, "phi", v, "0 < phi < 1, at least 2.2e-308");
 }
 
 void check_finite(const std::string& where, const std::string& name, double v) {
@@ -275,6 +285,7 @@ GranularPoint granular_from_row(const CsvTable& t, std::size_t r) {
   check_positive(p.source + ": column 'phi_err'", "phi_err", p.phi_err);
   check_positive(p.source + ": column 'mu_err'", "mu_err", p.mu_err);
   p.j = p.shear_rate / p.pressure;
+  check_viscous_number(p.source + ": columns 'gdot' and 'P'", p.j);
   return p;
 }
 
@@ -799,6 +810,7 @@ std::vector<GranularPoint> read_granular(const std::vector<std::string>& paths) 
       check_finite(where, "mu", p.mu);
       check_positive(where, "mu_err", p.mu_err);
       p.j = p.shear_rate / p.pressure;
+      check_viscous_number(where, p.j);
       points.push_back(p);
       continue;
     }

@@ -1282,8 +1282,12 @@ RunOutcome run_replicas(const RunSpec& spec, const RunOptions& options,
     } else if (!ok) {
       write_part(k, last);
       if (output.write) {
-        std::fprintf(stderr, "jamflow: %s; data kept in %s.part (continue it with --resume)\n",
-                     last.status.c_str(), spec.file.c_str());
+        // Only a stopped run can be continued; --resume refuses a failed one.
+        const bool resumable = last.status.rfind("interrupted", 0) == 0 || last.signal != 0;
+        const std::string next = resumable ? " (continue it with --resume " + spec.file + ".part)"
+                                           : std::string(" (a failed run cannot be continued)");
+        std::fprintf(stderr, "jamflow: %s; data kept in %s.part%s\n", last.status.c_str(),
+                     spec.file.c_str(), next.c_str());
       }
       outcome.code = last.signal != 0                           ? 128 + last.signal
                      : last.status.rfind("interrupted", 0) == 0 ? 130

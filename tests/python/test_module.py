@@ -119,6 +119,19 @@ def test_errors_are_the_command_lines_one_line_messages(tmp_path):
     assert issubclass(jamflow.InputFileError, OSError)
 
 
+def test_out_of_range_integers_and_unknown_analyses_are_config_errors(tmp_path):
+    scene = jamflow.Scene()
+    with pytest.raises(jamflow.ConfigError, match=r"system\.N = 10{30} is out of range"):
+        scene.set("system.N", 10**30)  # was RuntimeError: Unable to cast
+    with pytest.raises(jamflow.ConfigError, match="out of range"):
+        scene.set("system.N", np.uint64(2**64 - 1))
+    assert scene.get("system.N") == 1000
+    data = tmp_path / "d.csv"
+    data.write_text("N,P,gdot,phi,phi_err,mu,mu_err\n100,1e-4,1e-6,0.63,1e-4,0.2,0.01\n")
+    with pytest.raises(jamflow.ConfigError, match="unknown analysis 'nonsense'; allowed"):
+        jamflow.analyze("nonsense", data)
+
+
 # ---- runs -----------------------------------------------------------------------------------
 
 
