@@ -188,6 +188,13 @@ int analyze_main(const std::vector<std::string>& args) {
   CLI::Option* size_opt =
       ot->add_option("--size", size, "system size N to analyse when the data hold several");
 
+  // An unknown analysis would otherwise be taken for a stray argument ("A subcommand is
+  // required").
+  if (!args.empty() && !args[0].empty() && args[0][0] != '-' && args[0] != "hard-sphere" &&
+      args[0] != "soft" && args[0] != "olsson-teitel") {
+    print_error("unknown analysis '" + args[0] + "'; allowed: hard-sphere, soft, olsson-teitel");
+    return 2;
+  }
   try {
     std::vector<std::string> reversed(args.rbegin(), args.rend());
     app.parse(reversed);
@@ -201,7 +208,20 @@ int analyze_main(const std::vector<std::string>& args) {
   }
 
   try {
+    if (output.empty())
+      throw InputError("-o '': allowed a file name for the JSON output");
     const Outputs out = output_paths(output);
+    // Nothing written may replace an input, however its path is spelled.
+    std::vector<std::string> inputs = files;
+    inputs.insert(inputs.end(), yield_files.begin(), yield_files.end());
+    for (const std::string& path : {out.json, out.markdown, out.sidecar}) {
+      for (const std::string& in : inputs) {
+        if (same_file(path, in)) {
+          throw InputError("-o '" + output + "' would overwrite the input '" + in + "' (with " +
+                           path + "); allowed an output that is none of the data files");
+        }
+      }
+    }
     if (hs->parsed()) {
       HardSphereOptions o;
       o.envelope.z = envelope_z;

@@ -16,6 +16,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <new>
@@ -162,11 +163,21 @@ void check_positive(const std::string& where, const std::string& name, double v)
     range_error(where, name, v, "must be finite");
   if (!(v > 0.0))
     range_error(where, name, v, "must be > 0");
+  // A subnormal value (1e-320) loses its digits, and its logarithm, inverse square (a weight)
+  // or ratios overflow in the fits: refused here, naming the row, not after fitting.
+  if (!std::isnormal(v))
+    range_error(where, name, v, "must be at least 2.2250738585072014e-308");
+}
+
+// J = gdot / P of a row whose gdot and P are each in range may still overflow or underflow.
+void check_viscous_number(const std::string& where, double j) {
+  if (!std::isnormal(j) || !(j > 0.0))
+    range_error(where, "J = gdot / P", j, "must be a finite number of at least 2.2e-308");
 }
 
 void check_phi(const std::string& where, double v) {
-  if (!std::isfinite(v) || !(v > 0.0 && v < 1.0))
-    range_error(where, "phi", v, "0 < phi < 1");
+  if (!std::isnormal(v) || !(v > 0.0 && v < 1.0))
+    range_error(where, "phi", v, "0 < phi < 1, at least 2.2e-308");
 }
 
 void check_finite(const std::string& where, const std::string& name, double v) {
@@ -274,6 +285,7 @@ GranularPoint granular_from_row(const CsvTable& t, std::size_t r) {
   check_positive(p.source + ": column 'phi_err'", "phi_err", p.phi_err);
   check_positive(p.source + ": column 'mu_err'", "mu_err", p.mu_err);
   p.j = p.shear_rate / p.pressure;
+  check_viscous_number(p.source + ": columns 'gdot' and 'P'", p.j);
   return p;
 }
 
@@ -736,9 +748,43 @@ RunSummary read_run_summary(const std::string& path) {
   return read_in_child(path);
 }
 
+bool same_file(const std::string& a, const std::string& b) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::exists(a, ec) && fs::exists(b, ec))
+    return fs::equivalent(a, b, ec) && !ec;
+  return fs::absolute(a, ec).lexically_normal() == fs::absolute(b, ec).lexically_normal();
+}
+
+namespace {
+
+void refuse_repeated_files(const std::vector<std::string>& paths) {
+  for (std::size_t j = 1; j < paths.size(); ++j)
+    for (std::size_t i = 0; i < j; ++i)
+      if (same_file(paths[i], paths[j]))
+        throw InputError("DATA '" + paths[j] + "' is the same file as '" + paths[i] +
+                         "'; allowed each data file once (repeats would count one run twice)");
+}
+
+// Two records equal in every value are one run given twice (a row or a run file copied), not
+// two independent runs: merged as repeats they would shrink the error bars by sqrt(2).
+template <class Point, class Key>
+void refuse_identical(const std::vector<Point>& points, const Key& key) {
+  std::map<std::invoke_result_t<Key, const Point&>, std::size_t> seen;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const auto [it, fresh] = seen.emplace(key(points[i]), i);
+    if (!fresh)
+      throw InputError(points[i].source + ": the same record as " + points[it->second].source +
+                       " (every value equal); allowed each run once: remove the duplicate");
+  }
+}
+
+}  // namespace
+
 std::vector<GranularPoint> read_granular(const std::vector<std::string>& paths) {
   if (paths.empty())
     throw InputError("no data files given");
+  refuse_repeated_files(paths);
   std::vector<GranularPoint> points;
   for (const auto& path : paths) {
     if (is_hdf5_file(path)) {
@@ -764,6 +810,7 @@ std::vector<GranularPoint> read_granular(const std::vector<std::string>& paths) 
       check_finite(where, "mu", p.mu);
       check_positive(where, "mu_err", p.mu_err);
       p.j = p.shear_rate / p.pressure;
+      check_viscous_number(where, p.j);
       points.push_back(p);
       continue;
     }
@@ -776,12 +823,16 @@ std::vector<GranularPoint> read_granular(const std::vector<std::string>& paths) 
     for (const std::size_t r : usable_rows(t))
       points.push_back(granular_from_row(t, r));
   }
+  refuse_identical(points, [](const GranularPoint& p) {
+    return std::make_tuple(p.n, p.pressure, p.shear_rate, p.phi, p.phi_err, p.mu, p.mu_err);
+  });
   return merge_repeats(std::move(points));
 }
 
 std::vector<ShearPoint> read_shear(const std::vector<std::string>& paths) {
   if (paths.empty())
     throw InputError("no data files given");
+  refuse_repeated_files(paths);
   std::vector<ShearPoint> points;
   for (const auto& path : paths) {
     if (is_hdf5_file(path)) {
@@ -814,6 +865,10 @@ std::vector<ShearPoint> read_shear(const std::vector<std::string>& paths) {
     for (const std::size_t r : usable_rows(t))
       points.push_back(shear_from_row(t, r, form));
   }
+  refuse_identical(points, [](const ShearPoint& p) {
+    return std::make_tuple(p.set, p.n, p.phi, p.shear_rate, p.sigma, p.sigma_err, p.pressure,
+                           p.pressure_err);
+  });
   return merge_repeats(std::move(points));
 }
 

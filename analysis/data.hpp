@@ -71,16 +71,24 @@ bool is_hdf5_file(const std::string& path);
 // Reads granular (constant-pressure) data from CSV tables with columns
 // N,P,gdot,phi,phi_err,mu,mu_err (any order, extra columns ignored) and from
 // constant-pressure run files. Repeated state points (same N, P, gdot: the
-// independent runs of SPEC §5) are merged by inverse-variance weighting.
+// independent runs of SPEC §5) are merged by inverse-variance weighting; identical
+// records are refused (see merge_repeats).
 std::vector<GranularPoint> read_granular(const std::vector<std::string>& paths);
 
 // Reads flow curves for the Olsson–Teitel collapse from CSV tables with
 // columns N,phi,gdot,sigma_xy,sigma_xy_err, from granular CSV tables
 // (sigma_xy = mu P), and from run files of either ensemble. Repeated points
-// (same curve and gdot) are merged by inverse-variance weighting.
+// (same curve and gdot) are merged by inverse-variance weighting; identical
+// records are refused (see merge_repeats).
 std::vector<ShearPoint> read_shear(const std::vector<std::string>& paths);
 
-// Merging used by the readers (exposed for tests).
+// Whether two paths name the same file: the same file on disk where both exist (any spelling,
+// links included), else the same absolute path once normalised.
+bool same_file(const std::string& a, const std::string& b);
+
+// Merging used by the readers (exposed for tests). Before merging, the readers refuse a data
+// file given twice and two identical records (a row or run file repeated): merged as
+// independent repeats they would shrink the error bars. The message names both.
 std::vector<GranularPoint> merge_repeats(std::vector<GranularPoint> points);
 std::vector<ShearPoint> merge_repeats(std::vector<ShearPoint> points);
 

@@ -50,13 +50,14 @@ int run_command(const std::vector<std::string>& args) {
   int threads = -1;
   int replicas = 0;
   app.add_option("scene", scene_path, "scene file (TOML); omitted: the embedded default scene");
-  app.add_option("-o,--output", out_path, "output HDF5 file (overrides [output] file)");
+  app.add_option("-o,--output", out_path, "output HDF5 file (overrides [output] file)")
+      ->check(jamflow::non_empty_path());
   app.add_option("--set", sets, "override a scene value: section.key=value (repeatable)");
   app.add_option("--threads", threads,
                  "OpenMP threads (default 1; 0 = all cores; overrides [run] threads)")
       ->check(CLI::Range(0, 1024));  // as [run] threads; the message names the bounds
   app.add_option("--replicas", replicas, "independent replicas (overrides [run] replicas)")
-      ->check(CLI::PositiveNumber);
+      ->check(CLI::Range(1, 10000));  // as [run] replicas; the message names the bounds
   app.add_option(
       "--resume", resume_path,
       "continue an interrupted run from its checkpoint OUT.h5.part (scene from the file)");

@@ -46,7 +46,8 @@ int sweep_command(const std::vector<std::string>& args) {
   bool slurm = false, dry_run = false, quiet = false;
   std::vector<std::string> reuse;
   app.add_option("sweep", sweep_path, "sweep file (TOML)")->required();
-  app.add_option("--out", out_dir, "output folder (default: <sweep stem>.sweep beside the file)");
+  app.add_option("--out", out_dir, "output folder (default: <sweep stem>.sweep beside the file)")
+      ->check(non_empty_path());
   app.add_option("-j,--jobs", jobs, "points run at once, one thread each (default: the cores)")
       ->check(CLI::Range(1, 4096));
   app.add_flag("--dry-run", dry_run, "list the points, their state and the expected cost");
@@ -68,7 +69,15 @@ int sweep_command(const std::vector<std::string>& args) {
       ->check(CLI::Range(10, 65535));
   app.add_option("--reuse", reuse,
                  "folder of other sweeps (repeatable): finished replicas of the very same scene "
-                 "are copied in, not rerun");
+                 "are copied in, not rerun")
+      ->check(CLI::Validator(
+          [](std::string& dir) {
+            std::error_code ec;
+            return std::filesystem::is_directory(dir, ec)
+                       ? std::string()
+                       : "'" + dir + "' is not a folder; allowed a folder of other sweeps";
+          },
+          "DIR"));
   app.add_flag("-q,--quiet", quiet, "no progress line");
   std::vector<std::string> rev(args.rbegin(), args.rend());
   try {

@@ -11,6 +11,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <limits>
 #include <stdexcept>
 #include <thread>
@@ -86,6 +87,9 @@ std::string iso_now() {
 constexpr double kMaxSteps = 1e12;
 constexpr double kMaxParticleSteps = 1e15;  // about 230 days at 20 ns per particle-step
 constexpr double kMaxSamples = 1e9;
+// The cell's tilt is the strain less whole remaps: past 1e9 its round-off exceeds 1e-7 cell
+// lengths, and the Lees–Edwards images drift apart step by step.
+constexpr double kMaxStrain = 1e9;
 constexpr std::int64_t kMaxForceEvaluations = 1000000000000000;  // 1e15
 constexpr double kBytesPerSample = 3.0 * sizeof(Sample);         // the series, its copies at output
 // Measured: the peak resident size grows by 740 bytes per particle from N = 1e5 to 4e5 (lists,
@@ -255,6 +259,11 @@ RunSpec parse_run_spec(const Scene& scene) {
                         " days on one core); allowed at most " + fmt(kMaxParticleSteps));
     }
   }
+  if (const double strain = spec.shear_rate * run_length_bound(spec); !(strain <= kMaxStrain)) {
+    throw ConfigError("[shear] rate = " + fmt(spec.shear_rate) + " shears the cell by " +
+                      short_num(strain) + " over (t_eq + t_av) = " + fmt(run_length_bound(spec)) +
+                      "; allowed a strain of at most " + fmt(kMaxStrain) + " per replica");
+  }
   // Memory up front: the samples and the particles (measured per particle, with the
   // checkpoint's copy) against what the machine has.
   {
@@ -395,7 +404,9 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
   for (const auto& [name, series_ptr] : correlated) {
     const double tau = integrated_autocorrelation(*series_ptr) * spec.sample_every;
     out[std::string("tau_") + name] = tau;
-    if (out["block_length"] < limits.decorrelation_blocks * tau && too_short.empty()) {
+    if (!std::isfinite(tau) && too_short.empty()) {
+      too_short = std::string("tau_") + name + " = " + short_num(tau) + " not finite";
+    } else if (!(out["block_length"] >= limits.decorrelation_blocks * tau) && too_short.empty()) {
       // How much too small the block errors are, for correlations that decay exponentially
       // (more if slower).
       const double low = 1.0 - block_error_ratio(out["block_length"], tau);
@@ -413,8 +424,20 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
     sum.verdicts[name] = pass ? "pass" : "fail: " + why;
     out[name] = pass ? 1.0 : 0.0;
   };
+  // A value that is not a number (0 / 0 with no contacts, say) fails the verdict that rests on
+  // it: NaN would pass every test written as !(x > limit).
+  const auto not_finite = [&](std::initializer_list<const char*> keys) {
+    std::string bad;
+    for (const char* key : keys) {
+      const auto it = out.find(key);
+      if (it != out.end() && !std::isfinite(it->second))
+        bad += (bad.empty() ? "" : ", ") + std::string(key) + " = " + short_num(it->second);
+    }
+    return bad.empty() ? bad : bad + " not finite";
+  };
   // decorrelated: every block at least 2 tau long.
-  verdict("decorrelated", too_short.empty(), too_short + "; lengthen t_av");
+  const bool undefined_tau = too_short.find(" not finite") != std::string::npos;
+  verdict("decorrelated", too_short.empty(), too_short + (undefined_tau ? "" : "; lengthen t_av"));
 
   // steady: no significant trend of the block means.
   std::string drift;
@@ -436,14 +459,25 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
       }
     }
   }
-  verdict("steady", drift.empty(), drift + "; lengthen t_eq");
+  if (const std::string bad = not_finite({"sigma_xy", "sigma_xy_err", "pressure", "pressure_err",
+                                          "phi", "phi_err", "eta", "eta_err", "mu", "mu_err", "J"});
+      drift.empty() && !bad.empty())
+    verdict("steady", false, bad);
+  else
+    verdict("steady", drift.empty(), drift + "; lengthen t_eq");
 
   // stable: energy balance and no step-to-step oscillation of the forces.
   const EnergyBalance eb = energy_balance(series.samples, spec.t_eq, gdot, imposed, nb);
   out["energy_balance_corrected"] = eb.ratio;
   out["energy_balance_err"] = eb.error;
   std::string unstable, unchecked;
-  if (eb.valid) {
+  if (gdot > 0.0 && !std::isfinite(out["energy_balance"])) {
+    char text[200];
+    std::snprintf(text, sizeof text,
+                  "energy balance = %s not finite (work %.4g / dissipation %.4g)",
+                  short_num(out["energy_balance"]).c_str(), bw.mean, bl.mean);
+    unstable = text;
+  } else if (eb.valid) {
     const double allowed = std::max(limits.balance_tolerance, limits.balance_sigmas * eb.error);
     if (eb.residual > allowed) {
       char text[200];
@@ -1291,8 +1325,12 @@ RunOutcome run_replicas(const RunSpec& spec, const RunOptions& options,
     } else if (!ok) {
       write_part(k, last);
       if (output.write) {
-        std::fprintf(stderr, "jamflow: %s; data kept in %s.part (continue it with --resume)\n",
-                     last.status.c_str(), spec.file.c_str());
+        // Only a stopped run can be continued; --resume refuses a failed one.
+        const bool resumable = last.status.rfind("interrupted", 0) == 0 || last.signal != 0;
+        const std::string next = resumable ? " (continue it with --resume " + spec.file + ".part)"
+                                           : std::string(" (a failed run cannot be continued)");
+        std::fprintf(stderr, "jamflow: %s; data kept in %s.part%s\n", last.status.c_str(),
+                     spec.file.c_str(), next.c_str());
       }
       outcome.code = last.signal != 0                           ? 128 + last.signal
                      : last.status.rfind("interrupted", 0) == 0 ? 130

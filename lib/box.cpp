@@ -58,4 +58,18 @@ int Box::remap_direction() const {
   return 0;
 }
 
+std::int64_t Box::remaps_due() const {
+  const int dir = remap_direction();
+  if (dir == 0)
+    return 0;
+  const double whole = std::nearbyint(tilt() * ly / lx);
+  if (!(std::abs(whole) <= 0x1p52)) {
+    throw IntegrationError("the cell's tilt became " + std::to_string(tilt()) + " (strain " +
+                           std::to_string(strain) +
+                           "): too large to reduce by remaps; lower the shear rate or dt");
+  }
+  // At the threshold itself the rounding may say 0 where remap_direction() says 1.
+  return whole == 0.0 ? dir : static_cast<std::int64_t>(whole);
+}
+
 }  // namespace jamflow

@@ -34,6 +34,13 @@ struct Box {
 
   // Whether |tilt| exceeds 1/2 so that a remap is due, and the remap direction (+1: b -> b - a).
   int remap_direction() const;
+  // How many remaps (+1 each: b -> b - a) bring the tilt back into [-1/2, 1/2] Lx / Ly: 0 when
+  // none is due, remap_direction() when one suffices, and more after a strain of more than one
+  // cell length since the last remap (gdot dt > 1 within one step). An IntegrationError when the
+  // tilt is not finite or beyond 2^52 cell lengths, where round-off has lost its fraction.
+  std::int64_t remaps_due() const;
+  // The tilt as a fraction of Lx, xy / Lx: the x offset of the +y image in scaled units.
+  double tilt_fraction() const { return xy() / lx; }
 };
 
 }  // namespace jamflow

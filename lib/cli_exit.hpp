@@ -19,6 +19,17 @@ inline std::string one_line(std::string text) {
   return text;
 }
 
+// For options that name a file or folder: given as '' (a shell variable that was not set), the
+// option would silently fall back to its default, so it is refused.
+inline CLI::Validator non_empty_path() {
+  return CLI::Validator(
+      [](std::string& value) {
+        return value.empty() ? std::string("'' is empty; allowed a file or folder name")
+                             : std::string();
+      },
+      "PATH");
+}
+
 inline int parse_error_exit(const CLI::App& app, const CLI::ParseError& e, const char* program) {
   if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success))
     return app.exit(e);  // help or version: printed to stdout

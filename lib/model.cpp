@@ -74,6 +74,14 @@ void Model::refresh_list(bool renew) {
       list_.refresh_inner(state_, field_.threads());
       return;
     case NeighbourList::Status::kStale:
+      // A list is built in a cell reduced by remaps. Between steps prepare_step() keeps the tilt
+      // within 1/2; within a step that shears by more (RESPA's half step at gdot dt > 1) the
+      // state is remapped here. Not at the 1/2 threshold itself, which CVODE's stretches end
+      // just past: it holds the state's scaled positions and remaps only between them.
+      if (std::abs(state_.box.tilt_fraction()) > kRemapAtBuild) {
+        state_.remap(state_.box.remaps_due());
+        list_.invalidate();
+      }
       state_.wrap();
       changed();
       list_.build(state_, field_.threads());
@@ -99,6 +107,11 @@ const Evaluation& Model::evaluate() {
 }
 
 const Evaluation& Model::evaluate_and_drift(const Drift& drift, const Box& next) {
+  // `next` and the drift are of the current cell's remaps: the list must not remap it.
+  if (!(std::abs(state_.box.tilt_fraction()) <= kRemapAtBuild))
+    throw std::logic_error("Model::evaluate_and_drift: the cell's tilt xy / Lx = " +
+                           std::to_string(state_.box.tilt_fraction()) +
+                           " is due a remap; call prepare_step() first");
   if (!list_.built() || list_.inner_reference().size() != state_.pos.size())
     refresh_list();
   fresh_ = false;  // whatever happens below, the state moves or the pass is repeated
@@ -137,7 +150,8 @@ void Model::observe() {
 
 bool Model::prepare_step() {
   bool moved = false;
-  if (const int dir = state_.box.remap_direction(); dir != 0) {
+  // All the remaps due at once: a step may shear by more than one cell length (gdot dt > 1).
+  if (const std::int64_t dir = state_.box.remaps_due(); dir != 0) {
     state_.remap(dir);
     list_.invalidate();
     moved = true;

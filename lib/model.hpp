@@ -41,6 +41,10 @@ struct ModelOptions {
 
 class Model {
  public:
+  // A list build in a cell tilted by more than this (|xy / Lx|) remaps the state first, within
+  // NeighbourList::kMaxBuildTilt; prepare_step() keeps it within 1/2 between steps.
+  static constexpr double kRemapAtBuild = 0.55;
+
   Model(State state, const ModelOptions& options);
 
   const State& state() const { return state_; }
@@ -57,7 +61,10 @@ class Model {
   // The returned evaluation is of the configuration before the step; none is cached after it.
   const Evaluation& evaluate_and_drift(const Drift& drift, const Box& next);
   // Changes the state: f(State&) is called with the state, and the cached evaluation is dropped
-  // afterwards. This is the only write access, so an evaluation can never be stale.
+  // afterwards. This is the only write access, so an evaluation can never be stale. A list
+  // rebuild in evaluate() may wrap the scaled positions and, in a cell sheared past
+  // kRemapAtBuild since prepare_step(), remap them: callers keep real-space quantities (forces)
+  // across evaluations, not scaled positions.
   template <class F>
   decltype(auto) modify(F&& f) {
     changed();

@@ -35,15 +35,22 @@ std::array<std::array<double, 3>, 27> make_shifts() {
   return s;
 }
 
+// The most skewed cell a list built in `box` is checked against: |tilt| = 1/2 (the most skewed
+// between remaps) or the cell's own tilt where that is larger (a build within a step that
+// sheared past 1/2, up to NeighbourList::kMaxBuildTilt).
+Box most_skewed(const Box& box) {
+  Box worst = box;
+  worst.flips = 0;
+  worst.strain = std::max(0.5, std::abs(box.tilt_fraction())) * box.lx / box.ly;
+  return worst;
+}
+
 // Bins per scaled direction so that a sphere of radius `reach` spans at most one bin on each
-// side. The widths are evaluated at |tilt| = 1/2, the most skewed cell between remaps. A dilute
+// side. The widths are evaluated in the most skewed cell (above). A dilute
 // cell (phi = 1e-9 asks for 1e11 bins of reach) gets fewer, wider bins: at most 2 n + 27, which
 // keeps the grid's memory proportional to the particles and its indices within 32 bits.
 Eigen::Vector3i bins_for(const Box& box, double reach, std::size_t n) {
-  Box worst = box;
-  worst.flips = 0;
-  worst.strain = 0.5 * box.lx / box.ly;
-  const Eigen::Vector3d w = worst.perpendicular_widths();
+  const Eigen::Vector3d w = most_skewed(box).perpendicular_widths();
   Eigen::Vector3d fit;
   for (int d = 0; d < 3; ++d)
     fit[d] = std::max(1.0, std::floor(std::min(w[d] / reach, 1e9)));
@@ -112,15 +119,17 @@ const std::array<std::array<double, 3>, 27>& NeighbourList::shifts() {
   return table;
 }
 
-std::uint32_t image_code(double& dsx, double& dsy, double& dsz, double tilt) {
+std::uint32_t image_code(double& dsx, double& dsy, double& dsz, double tilt_fraction) {
   const double nz = std::nearbyint(dsz);
   const double ny = std::nearbyint(dsy);
   dsz -= nz;
   dsy -= ny;
-  // Nearest x image in real space given the chosen y image.
-  const double nx = std::nearbyint(dsx + tilt * dsy);
+  // Nearest x image in real space given the chosen y image: r_x = Lx (dsx + (xy / Lx) dsy).
+  const double nx = std::nearbyint(dsx + tilt_fraction * dsy);
   dsx -= nx;
-  return static_cast<std::uint32_t>((nx + 1) * 9 + (ny + 1) * 3 + (nz + 1));
+  const bool nameable = std::abs(nx) <= 1.0 && std::abs(ny) <= 1.0 && std::abs(nz) <= 1.0;
+  return nameable ? static_cast<std::uint32_t>((nx + 1) * 9 + (ny + 1) * 3 + (nz + 1))
+                  : NeighbourList::kNoImage;
 }
 
 NeighbourList::NeighbourList(double skin) {
@@ -140,16 +149,31 @@ void NeighbourList::build(const State& state, int threads) {
   const std::size_t n = state.size();
   if (n > kMaxParticles)
     throw ConfigError("N = " + std::to_string(n) + " exceeds the list limit");
+  // The image codes name n_x in {-1, 0, 1} only: with scaled separations below 1 (wrapped
+  // positions) and |xy / Lx| <= kMaxBuildTilt, the nearest image is one of them (see
+  // image_code). Anything else would write codes that name no image, and so indices out of
+  // range, so it is refused here (Model remaps and wraps before it builds).
+  const double tilt = state.box.tilt_fraction();
+  if (!(std::abs(tilt) <= kMaxBuildTilt)) {
+    throw std::invalid_argument(
+        "neighbour list: a build in a cell of tilt xy / Lx = " + std::to_string(tilt) +
+        "; allowed at most " + std::to_string(kMaxBuildTilt) + " (remap first)");
+  }
+  for (double s : state.pos) {
+    if (!(s >= 0.0 && s < 1.0)) {
+      if (!std::isfinite(s))
+        throw IntegrationError("particle positions became non-finite");
+      throw std::invalid_argument(
+          "neighbour list: a build needs wrapped positions in [0, 1), got " + std::to_string(s));
+    }
+  }
   a_min_ = *std::min_element(state.diameter.begin(), state.diameter.end());
   a_max_ = *std::max_element(state.diameter.begin(), state.diameter.end());
   const double reach = a_max_ + skin_;
 
   // A pair must see at most one periodic image of a partner within reach.
   {
-    Box worst = state.box;
-    worst.flips = 0;
-    worst.strain = 0.5 * state.box.lx / state.box.ly;
-    const double wmin = worst.perpendicular_widths().minCoeff();
+    const double wmin = most_skewed(state.box).perpendicular_widths().minCoeff();
     if (2.0 * reach >= wmin) {
       throw ConfigError("cell too small: narrowest width " + std::to_string(wmin) +
                         " must exceed twice the list reach " + std::to_string(reach) +
@@ -185,7 +209,7 @@ void NeighbourList::build(const State& state, int threads) {
     }
     const Eigen::Matrix3d h = state.box.h();
     const double hxx = h(0, 0), hxy = h(0, 1), hyy = h(1, 1), hzz = h(2, 2);
-    const double t = state.box.tilt();
+    const double t = tilt;
     const double* d = state.diameter.data();
     const std::uint32_t* cs = cell_start.data();
     const std::uint32_t* mem = members.data();
@@ -369,7 +393,7 @@ NeighbourList NeighbourList::from(const Snapshot& s) {
 void NeighbourList::build_all_pairs(const State& state) {
   const std::size_t n = state.size();
   const Eigen::Matrix3d h = state.box.h();
-  const double t = state.box.tilt();
+  const double t = state.box.tilt_fraction();
   const double* d = state.diameter.data();
   for (std::size_t i = 0; i < n; ++i) {
     for (std::size_t j = i + 1; j < n; ++j) {

@@ -31,6 +31,12 @@ class NeighbourList {
   static constexpr unsigned kCodeBits = 5;
   static constexpr std::uint32_t kCodeMask = (1u << kCodeBits) - 1;
   static constexpr std::uint32_t kMaxParticles = (1u << (32 - kCodeBits)) - 1;
+  // What image_code() returns for an image no entry can name (|n| > 1 in some direction).
+  static constexpr std::uint32_t kNoImage = kCodeMask;
+  // The largest |xy / Lx| a build accepts: remaps keep it within 1/2 between steps, a step may
+  // take it somewhat past (Model remaps before a build beyond Model::kRemapAtBuild), and up to
+  // here the nearest image of every pair has a code (|dsx + t dsy| < 1 + 3/8 rounds to |n_x| <= 1).
+  static constexpr double kMaxBuildTilt = 0.75;
 
   // Inner skin of the list the force pass reads (see above); at most half the skin.
   static constexpr double kInnerSkin = 0.05;
@@ -41,8 +47,9 @@ class NeighbourList {
   double inner_skin() const { return inner_skin_; }
   void set_skin(double skin);
 
-  // Builds both lists. The state must be wrapped (scaled coordinates in [0, 1)). The lists do
-  // not depend on the number of threads.
+  // Builds both lists. The state must be wrapped (scaled coordinates in [0, 1)) and its cell
+  // tilted by at most kMaxBuildTilt; otherwise std::invalid_argument (IntegrationError for a
+  // non-finite position). The lists do not depend on the number of threads.
   void build(const State& state, int threads = 1);
 
   enum class Status {
@@ -139,7 +146,10 @@ class NeighbourList {
   std::size_t max_row_ = 0;
 };
 
-// Nearest image code for scaled separation ds under tilt t, and the image itself.
-std::uint32_t image_code(double& dsx, double& dsy, double& dsz, double tilt);
+// Nearest image of scaled separation ds in a cell whose +y image sits xy / Lx = tilt_fraction
+// (Box::tilt_fraction) along x: ds is reduced to it, and its code returned, or
+// NeighbourList::kNoImage if it is not one of the 27 codes (only for |ds| >= 1 in some direction
+// or a tilt beyond NeighbourList::kMaxBuildTilt).
+std::uint32_t image_code(double& dsx, double& dsy, double& dsz, double tilt_fraction);
 
 }  // namespace jamflow

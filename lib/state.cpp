@@ -43,13 +43,17 @@ void State::wrap() {
   }
 }
 
-void State::remap(int dir) {
+void State::remap(std::int64_t dir) {
   // r = s_x a + s_y b with b' = b - dir a  =>  s_x' = s_x + dir s_y. Unwrapped coordinates
   // transform the same way, so the x image counter absorbs dir * (y image).
   const std::size_t n = size();
+  const double d = static_cast<double>(dir);
   for (std::size_t i = 0; i < n; ++i) {
-    pos[i] += dir * pos[n + i];
-    image[i] += dir * image[n + i];
+    pos[i] += d * pos[n + i];
+    // Modulo 2^32, as the counters wrap after that many cell lengths anyway (no overflow).
+    image[i] = static_cast<std::int32_t>(static_cast<std::uint32_t>(image[i]) +
+                                         static_cast<std::uint32_t>(dir) *
+                                             static_cast<std::uint32_t>(image[n + i]));
   }
   box.flips += dir;
 }

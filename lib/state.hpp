@@ -44,8 +44,9 @@ struct State {
 
   // Wrap scaled coordinates into [0, 1), updating the image counters.
   void wrap();
-  // Apply the discrete Lees–Edwards remap b -> b - dir a; positions are unchanged in space.
-  void remap(int dir);
+  // Apply the discrete Lees–Edwards remap b -> b - dir a (dir times b -> b - a, any whole
+  // number); positions are unchanged in space. Scaled x is left unwrapped.
+  void remap(std::int64_t dir);
 };
 
 // Diameters of the two species (SPEC §1).

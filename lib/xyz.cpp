@@ -12,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <numeric>
 #include <optional>
 #include <ostream>
 #include <string_view>
@@ -381,6 +382,7 @@ State read_xyz(const std::string& path) {
     state.time = header_number(time_text, "Time");
 
   const Eigen::Matrix3d h_inv = state.box.h_inv();
+  std::vector<std::size_t> row_line(n);
   for (std::size_t i = 0; i < n; ++i) {
     if (!next_line()) {
       p.fail(line_no + 1, "expected " + std::to_string(n) +
@@ -454,6 +456,7 @@ State read_xyz(const std::string& path) {
     state.x()[i] = s.x();
     state.y()[i] = s.y();
     state.z()[i] = s.z();
+    row_line[i] = line_no;
   }
 
   // Nothing but blank lines may follow: more rows mean the count is wrong, another count
@@ -491,6 +494,26 @@ State read_xyz(const std::string& path) {
   }
 
   state.wrap();
+  // Two spheres at one place have no direction to push each other apart: the first force pass
+  // would be 0 / 0. Bad input, named here, not a run that fails at t = 0.
+  std::vector<std::size_t> order(n);
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  const auto at = [&](std::size_t i) {
+    return std::array<double, 3>{state.x()[i], state.y()[i], state.z()[i]};
+  };
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return std::pair(at(a), a) < std::pair(at(b), b);
+  });
+  for (std::size_t k = 1; k < n; ++k) {
+    const std::size_t a = order[k - 1], b = order[k];
+    if (at(a) == at(b)) {
+      const std::size_t later = std::max(a, b), first = std::min(a, b);
+      p.fail(row_line[later],
+             "particle " + std::to_string(later + 1) + " is at the same position as particle " +
+                 std::to_string(first + 1) + " (line " + std::to_string(row_line[first]) +
+                 "); allowed distinct positions");
+    }
+  }
   return state;
 }
 

@@ -127,11 +127,26 @@ toml::table to_table(const py::dict& d, const std::string& where) {
   return t;
 }
 
+// A Python int as a scene integer: one beyond 64 bits is the scene's error (ConfigError, as
+// any out-of-range value), not pybind11's "Unable to cast".
+std::int64_t scene_integer(py::handle v, const std::string& key) {
+  int overflow = 0;
+  const long long x = PyLong_AsLongLongAndOverflow(v.ptr(), &overflow);
+  if (overflow != 0) {
+    throw ConfigError(key + " = " + text_of(v) +
+                      " is out of range; allowed integers of at most 9223372036854775807 in "
+                      "magnitude (and the key's own range)");
+  }
+  if (x == -1 && PyErr_Occurred())
+    throw py::error_already_set();
+  return x;
+}
+
 std::unique_ptr<toml::node> to_toml(py::handle v, const std::string& key) {
   if (py::isinstance<py::bool_>(v))
     return std::make_unique<toml::value<bool>>(v.cast<bool>());
   if (PyLong_Check(v.ptr()))
-    return std::make_unique<toml::value<std::int64_t>>(v.cast<std::int64_t>());
+    return std::make_unique<toml::value<std::int64_t>>(scene_integer(v, key));
   if (PyFloat_Check(v.ptr()))
     return std::make_unique<toml::value<double>>(v.cast<double>());
   if (py::isinstance<py::str>(v))
@@ -148,9 +163,12 @@ std::unique_ptr<toml::node> to_toml(py::handle v, const std::string& key) {
     return std::make_unique<toml::value<std::string>>(
         py::module_::import("os").attr("fspath")(v).cast<std::string>());
   // numpy scalars and other numbers
-  if (py::hasattr(v, "__index__"))
-    return std::make_unique<toml::value<std::int64_t>>(
-        py::reinterpret_steal<py::object>(PyNumber_Index(v.ptr())).cast<std::int64_t>());
+  if (py::hasattr(v, "__index__")) {
+    const py::object index = py::reinterpret_steal<py::object>(PyNumber_Index(v.ptr()));
+    if (!index)
+      throw py::error_already_set();
+    return std::make_unique<toml::value<std::int64_t>>(scene_integer(index, key));
+  }
   if (py::hasattr(v, "__float__"))
     return std::make_unique<toml::value<double>>(
         py::float_(py::reinterpret_borrow<py::object>(v)).cast<double>());

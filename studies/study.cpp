@@ -39,7 +39,8 @@ int study_main(const std::vector<std::string>& args) {
       ->required();
   app.add_option("--preset", opt.preset, "quick (CI, minutes), standard (~1 h), paper (cluster)")
       ->check(CLI::IsMember({"quick", "standard", "paper"}));
-  app.add_option("--out", opt.out_dir, "output folder (default out/<study>-<preset>)");
+  app.add_option("--out", opt.out_dir, "output folder (default out/<study>-<preset>)")
+      ->check(non_empty_path());
   app.add_flag("--quiet", opt.quiet, "no progress lines");
   app.add_option("-j,--jobs", opt.jobs,
                  "points run at once, each a `jamflow run` process on one thread (default: the "

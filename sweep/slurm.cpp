@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <regex>
+#include <string>
 
 #include "lib/error.hpp"
 
@@ -10,10 +11,22 @@ namespace jamflow::sweep {
 namespace fs = std::filesystem;
 
 void check_slurm_time(const std::string& time) {
-  static const std::regex form(R"(^(\d+-)?\d+(:\d{1,2}){0,2}$)");
-  if (!std::regex_match(time, form) || time.size() > 20)
+  // Slurm's forms: M, M:S, H:M:S, D-H, D-H:M, D-H:M:S. Every field after the first is below 60,
+  // and hours after days below 24; sbatch rejects anything else (99:99 is 99 min 99 s).
+  static const std::regex form(R"(^(?:(\d+)-)?(\d+)(?::(\d{1,2}))?(?::(\d{1,2}))?$)");
+  std::smatch m;
+  bool ok = time.size() <= 20 && std::regex_match(time, m, form);
+  if (ok) {
+    for (int k = 3; k <= 4; ++k)
+      ok = ok && (!m[k].matched || std::stoi(m[k].str()) < 60);
+    if (m[1].matched)
+      ok = ok && m[2].length() <= 2 && std::stoi(m[2].str()) < 24;
+  }
+  if (!ok)
     throw ConfigError("--time '" + time +
-                      "': allowed a Slurm time limit such as 24:00:00, 1-12:00:00 or 90");
+                      "': allowed a Slurm time limit [D-]HH:MM:SS (or MM, MM:SS, D-HH, D-HH:MM) "
+                      "with minutes and seconds below 60 and hours below 24 after days, such as "
+                      "24:00:00, 1-12:00:00 or 90");
 }
 
 std::string shell_quoted(const std::string& s) {

@@ -24,7 +24,7 @@ void reference_forces(const Pair& pair, const State& state, ForceResult& out) {
   out.virial.setZero();
   out.contacts = 0;
   const Eigen::Matrix3d h = state.box.h();
-  const double t = state.box.tilt();
+  const double t = state.box.tilt_fraction();
   for (std::size_t i = 0; i < n; ++i) {
     for (std::size_t j = i + 1; j < n; ++j) {
       double dx = state.x()[i] - state.x()[j];

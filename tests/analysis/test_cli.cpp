@@ -131,6 +131,43 @@ TEST(Cli, HardSphereWritesJsonAndReport) {
   EXPECT_NE(md.find("| phi_J | 0.647"), std::string::npos) << md;
 }
 
+// An output that is an input is refused before anything is written, however the path is spelled
+// (before, `-o d.csv` replaced the data with JSON and exited 0).
+TEST(Cli, AnOutputThatIsAnInputIsRefused) {
+  ScratchDir dir;
+  testing::GranularSpec spec;
+  spec.sizes = {100, 1000};
+  const std::string text = granular_csv(testing::make_granular(spec));
+  auto data = dir.write("d.csv", text);
+  std::filesystem::create_directories(dir.file("sub"));
+  const std::string other = dir.file("sub") + "/../d.csv";
+  for (const std::string& out : {data, other}) {
+    CliRun r = run({"hard-sphere", data, "-o", out, "--no-plots"});
+    EXPECT_EQ(r.code, 2) << r.err;
+    EXPECT_NE(r.err.find("would overwrite the input '" + data + "'"), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_EQ(read_text(data), text);
+  }
+  // The report beside the JSON counts too: -o d.json writes d.md.
+  auto md = dir.write("r.md", text);
+  CliRun r = run({"olsson-teitel", md, "-o", dir.file("r.json"), "--no-plots"});
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("would overwrite the input"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("r.json")));
+}
+
+// An unknown analysis is named (it read "A subcommand is required"); -o '' is refused.
+TEST(Cli, UnknownAnalysisAndEmptyOutputAreNamed) {
+  CliRun bogus = run({"bogus", "x.csv", "-o", "x.json"});
+  EXPECT_EQ(bogus.code, 2);
+  EXPECT_NE(bogus.err.find("unknown analysis 'bogus'; allowed: hard-sphere, soft, olsson-teitel"),
+            std::string::npos)
+      << bogus.err;
+  CliRun empty = run({"hard-sphere", "x.csv", "-o", ""});
+  EXPECT_EQ(empty.code, 2);
+  EXPECT_NE(empty.err.find("-o '': allowed a file name"), std::string::npos) << empty.err;
+}
+
 TEST(Cli, HardSphereReportsBadWindowAsUsageError) {
   ScratchDir dir;
   testing::GranularSpec spec;

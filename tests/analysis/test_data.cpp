@@ -143,6 +143,37 @@ TEST(Merging, RepeatedStatePointsAreInverseVarianceAveraged) {
   EXPECT_NEAR(m[0].mu, (4 * 0.20 + 0.22) / 5, 1e-15);
 }
 
+// One run given twice is not two runs: a file named twice (in any spelling) and a row repeated
+// are refused, naming both, where they were merged as repeats and shrank the error bars.
+TEST(Merging, DuplicateFilesAndIdenticalRowsAreRefused) {
+  ScratchDir dir;
+  const std::string header = "N,P,gdot,phi,phi_err,mu,mu_err\n";
+  const std::string row1 = "100,1e-4,1e-6,0.63,1e-4,0.2,0.01\n";
+  const std::string row2 = "100,1e-4,1e-6,0.632,1e-4,0.21,0.01\n";
+  const auto a = dir.write("a.csv", header + row1 + row2);
+  std::filesystem::create_directories(dir.file("sub"));
+  expect_input_error(
+      [&] {
+        read_granular({a, dir.file("sub") + "/../a.csv"});
+      },
+      {"is the same file as '" + a + "'", "allowed each data file once"});
+  expect_input_error([&] { read_shear({a, a}); }, {"is the same file as"});
+  // A copy of the file under another name: its rows equal the first file's.
+  const auto copy = dir.write("copy.csv", header + row1 + row2);
+  expect_input_error(
+      [&] {
+        read_granular({a, copy});
+      },
+      {copy + ":2: the same record as " + a + ":2", "remove the duplicate"});
+  // A row repeated in one file.
+  const auto twice = dir.write("twice.csv", header + row1 + row2 + row1);
+  expect_input_error([&] { read_granular({twice}); },
+                     {twice + ":4: the same record as " + twice + ":2"});
+  expect_input_error([&] { read_shear({twice}); }, {twice + ":4: the same record as"});
+  // Two runs of one state point with different results are still merged.
+  EXPECT_EQ(read_granular({a}).size(), 1u);
+}
+
 // --- HDF5 run files ------------------------------------------------------------
 
 void put_double(hid_t obj, const char* name, double v) {

@@ -164,6 +164,86 @@ TEST_F(ExitStatus, BadSceneAndInitAreBadInputBeforeAnyRun) {
   EXPECT_FALSE(fs::exists(dir_ / "jamflow.h5.part"));
 }
 
+// Messages that misled (issue 34): each names the option or file, the value and what is allowed,
+// on one line with status 2, or says only what can be done.
+TEST_F(ExitStatus, MessagesSayWhatIsWrongAndWhatCanBeDone) {
+  // A failed run: no "continue it with --resume" (which then says a failed run cannot be).
+  const std::string failing = file("fail.toml",
+                                   "[system]\nN = 60\nphi = 0.5\n"
+                                   "[ensemble]\nkind = \"constant_pressure\"\npressure = 10\n"
+                                   "xi_V = 1e-6\n[shear]\nrate = 1e-3\n"
+                                   "[integrator]\nkind = \"euler\"\ndt = 0.1\n"
+                                   "[run]\nt_eq = 0\nt_av = 2\nsample_every = 0.1\n");
+  const Outcome failed = run({"run", failing, "-o", "fail.h5", "-q"});
+  EXPECT_EQ(failed.status, 1) << failed.err;
+  EXPECT_NE(failed.err.find("a failed run cannot be continued"), std::string::npos) << failed.err;
+  EXPECT_EQ(failed.err.find("--resume"), std::string::npos) << failed.err;
+
+  // --replicas 0 names the range, not a 309-digit bound.
+  const Outcome zero = run({"run", "--replicas", "0"});
+  expect_usage_error(zero, "--replicas: Value 0 not in range 1 to 10000");
+  EXPECT_LT(zero.err.size(), 200u) << zero.err;
+
+  // An empty output or folder is refused, not replaced by the default.
+  expect_usage_error(run({"run", "-o", ""}), "--output: '' is empty");
+  expect_usage_error(run({"sweep", "s.toml", "--out", ""}), "--out: '' is empty");
+  expect_usage_error(run({"study", "timestep", "--out", ""}), "--out: '' is empty");
+  EXPECT_FALSE(fs::exists(dir_ / "jamflow.h5"));
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+
+  // A folder to reuse that is not there; a Slurm time limit sbatch would reject.
+  expect_usage_error(run({"sweep", "s.toml", "--reuse", (dir_ / "nowhere").string()}),
+                     "--reuse: '" + (dir_ / "nowhere").string() + "' is not a folder");
+  for (const char* bad : {"99:99", "1:60:00", "1-24:00", "12:00:0000"})
+    expect_usage_error(run({"sweep", "s.toml", "--slurm", "--time", bad}),
+                       "--time '" + std::string(bad) + "': allowed a Slurm time limit");
+
+  // An unknown analysis is named.
+  expect_usage_error(run({"analyze", "bogus"}), "unknown analysis 'bogus'; allowed: hard-sphere");
+
+  // A value no fit can use (subnormal P) is named by file and line before any fitting.
+  file("tiny.csv",
+       "N,P,gdot,phi,phi_err,mu,mu_err\n100,1e-4,1e-6,0.63,1e-4,0.2,0.01\n"
+       "100,1e-320,1e-6,0.63,1e-4,0.2,0.01\n");
+  expect_usage_error(run({"analyze", "hard-sphere", "tiny.csv", "-o", "t.json", "--no-plots"}),
+                     "tiny.csv:3: column 'P': P = ");
+  EXPECT_FALSE(fs::exists(dir_ / "t.json"));
+
+  // Two particles at one place in an init file: bad input naming the lines, not a failed run.
+  file("dup.xyz",
+       "3\nLattice=\"6 0 0 0 6 0 0 0 6\" Properties=species:S:1:pos:R:3:radius:R:1\n"
+       "H 1 1 1 0.5\nH 3 3 3 0.5\nHe 1 1 1 0.7\n");
+  const std::string dup = file("dup.toml",
+                               "[system]\ninit = \"dup.xyz\"\n"
+                               "[ensemble]\nkind = \"constant_volume\"\n"
+                               "[shear]\nrate = 1e-3\n"
+                               "[integrator]\nkind = \"euler\"\ndt = 0.1\n"
+                               "[run]\nt_eq = 0\nt_av = 2\nsample_every = 0.1\n");
+  expect_usage_error(run({"run", dup, "-o", "dup.h5"}),
+                     "dup.xyz:5: particle 3 is at the same position as particle 1 (line 3)");
+  EXPECT_FALSE(fs::exists(dir_ / "dup.h5.part"));
+}
+
+// A step that shears by more than a cell length (gdot dt = 2 and 20) runs (it crashed with
+// SIGSEGV in the neighbour list); a strain beyond the tilt's round-off is bad input.
+TEST_F(ExitStatus, FastShearRunsAndAStrainBeyondRoundOffIsBadInput) {
+  const std::string scene = file("fast.toml",
+                                 "[system]\nN = 60\nphi = 0.5\n"
+                                 "[ensemble]\nkind = \"constant_volume\"\n"
+                                 "[shear]\nrate = 1e-3\n"
+                                 "[integrator]\nkind = \"euler\"\ndt = 0.1\n"
+                                 "[run]\nt_eq = 0\nt_av = 2\nsample_every = 0.1\n");
+  for (const char* rate : {"shear.rate=20", "shear.rate=200"}) {
+    const Outcome o = run({"run", scene, "--set", rate, "-o", "fast.h5", "--force"});
+    EXPECT_EQ(o.status, 0) << rate << ": " << o.err;
+    EXPECT_NE(o.err.find("not stable"), std::string::npos) << rate << ": " << o.err;
+  }
+  expect_usage_error(run({"run", scene, "--set", "shear.rate=1e100", "-o", "huge.h5"}),
+                     "[shear] rate = 1e+100 shears the cell by 2e+100 over (t_eq + t_av) = 2; "
+                     "allowed a strain of at most 1e+09");
+  EXPECT_FALSE(fs::exists(dir_ / "huge.h5.part"));
+}
+
 // Run files that libhdf5 cannot read: a truncated copy of a real run, and a corrupt file on
 // which libhdf5 1.10.8 itself crashes (tests/analysis/data/README.md). Each is bad input,
 // named in one line; the crash stays in the process that read the file.

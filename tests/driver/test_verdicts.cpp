@@ -106,6 +106,45 @@ TEST(Verdicts, FlagAStatePointThatIsStillDrifting) {
   EXPECT_TRUE(s.failed());
 }
 
+// A summary value that is not a number fails its verdict. A window of samples with no contacts
+// (sigma_xy = P = D = 0): mu = 0 / 0 and the energy balance 0 / 0 are NaN, J = gdot / 0 is inf.
+// Before, steady and stable passed (NaN slips through every test written as !(x > limit)),
+// stable on the step-to-step correlation alone.
+TEST(Verdicts, NonFiniteValuesFailTheirVerdicts) {
+  const RunSpec spec = spec_of(scene(kVolume, 0.62, 1e-3, 0.1, 0.0, 40.0));
+  Series series;
+  for (int k = 0; k <= 40; ++k)
+    series.samples.push_back(Sample{double(k), 1e-3 * k, 1e3, 1e-9, 0.0, 0.0, 0.0, 0.0, 0.0});
+  StepPairs steps;
+  steps.cross = steps.norm = 1.0;
+  steps.pairs = 10;
+  const Summary s = summarize(spec, series, &steps);
+  EXPECT_TRUE(std::isnan(s.values.at("mu")));
+  EXPECT_TRUE(std::isinf(s.values.at("J")));
+  const std::string& steady = s.verdicts.at("steady");
+  EXPECT_EQ(steady.rfind("fail: ", 0), 0u) << steady;
+  EXPECT_NE(steady.find("mu = "), std::string::npos) << steady;
+  EXPECT_NE(steady.find("J = inf"), std::string::npos) << steady;
+  EXPECT_NE(steady.find("not finite"), std::string::npos) << steady;
+  const std::string& stable = s.verdicts.at("stable");
+  EXPECT_EQ(stable.rfind("fail: energy balance = ", 0), 0u) << stable;
+  EXPECT_NE(stable.find("not finite"), std::string::npos) << stable;
+  EXPECT_EQ(s.values.at("steady"), 0.0);
+  EXPECT_EQ(s.values.at("stable"), 0.0);
+  EXPECT_TRUE(s.failed());
+
+  // The same from a run: phi = 1e-9 has no contacts.
+  RunOptions opt;
+  opt.quiet = true;
+  const RunSpec dilute = spec_of(scene(kVolume, 0.6, 1e-3, 0.1, 0.0, 20.0), {"system.phi=1e-9"});
+  const ReplicaResult r = run_replica(dilute, 1, opt);
+  ASSERT_EQ(r.status, "complete");
+  EXPECT_EQ(r.summary.verdicts.at("steady").rfind("fail: ", 0), 0u)
+      << r.summary.verdicts.at("steady");
+  EXPECT_EQ(r.summary.verdicts.at("stable").rfind("fail: ", 0), 0u)
+      << r.summary.verdicts.at("stable");
+}
+
 // t_av = "auto" at gdot = 1e-2, N = 200: eta's relative block error falls below 2% within a few
 // thousand tau (about 1.4% at t_av = 900 on this seed); a target of 1e-4 would need ~1e8 tau,
 // so the run stops at max_time and says so.

@@ -119,6 +119,19 @@ def test_errors_are_the_command_lines_one_line_messages(tmp_path):
     assert issubclass(jamflow.InputFileError, OSError)
 
 
+def test_out_of_range_integers_and_unknown_analyses_are_config_errors(tmp_path):
+    scene = jamflow.Scene()
+    with pytest.raises(jamflow.ConfigError, match=r"system\.N = 10{30} is out of range"):
+        scene.set("system.N", 10**30)  # was RuntimeError: Unable to cast
+    with pytest.raises(jamflow.ConfigError, match="out of range"):
+        scene.set("system.N", np.uint64(2**64 - 1))
+    assert scene.get("system.N") == 1000
+    data = tmp_path / "d.csv"
+    data.write_text("N,P,gdot,phi,phi_err,mu,mu_err\n100,1e-4,1e-6,0.63,1e-4,0.2,0.01\n")
+    with pytest.raises(jamflow.ConfigError, match="unknown analysis 'nonsense'; allowed"):
+        jamflow.analyze("nonsense", data)
+
+
 # ---- runs -----------------------------------------------------------------------------------
 
 
@@ -211,6 +224,23 @@ def test_simulation_arrays_and_a_shear_rate_ramp():
     with pytest.raises(jamflow.ConfigError):
         sim.advance_to(1.0)  # in the past
     assert sim.statistics["force_evaluations"] > 0
+
+
+def test_a_step_that_shears_by_more_than_a_cell_runs():
+    # gdot dt = 5: the cell is remapped several times per step (this crashed the interpreter).
+    sim = jamflow.Simulation(SMALL, seed=5)
+    sim.shear_rate = 50.0
+    sim.advance(3.0)
+    assert sim.observables["strain"] == pytest.approx(150.0, rel=1e-9)
+    assert np.isfinite(sim.forces).all()
+    scene = jamflow.Scene(SMALL)
+    scene.update({"shear.rate": 20.0, "run.t_eq": 0.0, "run.t_av": 4.0})
+    result = jamflow.run(scene)
+    assert result.summary["verdict_stable"].startswith("fail")
+    # A strain whose fraction round-off has lost: a failed run, raised, not a crash.
+    sim.shear_rate = 1e100
+    with pytest.raises(jamflow.IntegrationError, match="tilt"):
+        sim.advance(1.0)
 
 
 # ---- interruption ---------------------------------------------------------------------------

@@ -12,6 +12,7 @@
 
 #include "lib/h5.hpp"
 #include "studies/study.hpp"
+#include "tests/driver/temp_dir.hpp"
 #include "tests/studies/jamflow_exe.hpp"
 
 namespace jamflow::studies {
@@ -34,8 +35,8 @@ TEST(EnsembleStudy, QuickPresetWritesTablePlotAndSensibleNumbers) {
       info = &s;
   ASSERT_NE(info, nullptr) << "the ensemble study is not registered";
 
-  const fs::path dir =
-      fs::temp_directory_path() / ("jamflow-ensemble-" + std::to_string(::getpid()));
+  const testing_support::TempDir scratch("jamflow-ensemble-");  // removed however the test ends
+  const fs::path dir = scratch.path();
   fs::remove_all(dir);
   use_test_jamflow();
   StudyOptions opt;

@@ -16,6 +16,7 @@
 #include "lib/h5.hpp"
 #include "studies/common.hpp"
 #include "studies/softness/softness.hpp"
+#include "tests/driver/temp_dir.hpp"
 #include "tests/studies/jamflow_exe.hpp"
 
 using namespace jamflow;
@@ -115,8 +116,9 @@ TEST(SoftnessStudy, TinyQuickPreset) {
   p.reference_average = 2.0;
   p.reference_replicas = 2;
   p.budget_particle_steps = 0.0;  // no budget: the runs are short
-  const std::string dir =
-      ::testing::TempDir() + "jamflow_softness_study." + std::to_string(::getpid());
+  const testing_support::TempDir scratch(
+      "jamflow_softness_study.");  // removed however the test ends
+  const std::string dir = scratch.path();
   std::filesystem::remove_all(dir);
   use_test_jamflow();
   StudyOptions o;

@@ -13,6 +13,7 @@
 
 #include "lib/h5.hpp"
 #include "studies/stability/stability.hpp"
+#include "tests/driver/temp_dir.hpp"
 #include "tests/studies/jamflow_exe.hpp"
 
 using namespace jamflow;
@@ -30,8 +31,9 @@ TEST(StabilityStudy, TinyQuickPreset) {
   p.strain_eq = 0.0;
   p.t_av_min = 300.0;
   p.strain_av = 0.0;
-  const std::string dir =
-      ::testing::TempDir() + "jamflow_stability_study." + std::to_string(::getpid());
+  const testing_support::TempDir scratch(
+      "jamflow_stability_study.");  // removed however the test ends
+  const std::string dir = scratch.path();
   std::filesystem::remove_all(dir);
   use_test_jamflow();
   StudyOptions o;
@@ -106,8 +108,9 @@ TEST(StabilityStudy, TinyRespaSizeScan) {
   p.strain_eq = 0.0;
   p.t_av_min = 400.0;
   p.strain_av = 0.0;
-  const std::string dir =
-      ::testing::TempDir() + "jamflow_stability_respa." + std::to_string(::getpid());
+  const testing_support::TempDir scratch(
+      "jamflow_stability_respa.");  // removed however the test ends
+  const std::string dir = scratch.path();
   std::filesystem::remove_all(dir);
   use_test_jamflow();
   StudyOptions o;

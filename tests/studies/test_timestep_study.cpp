@@ -11,6 +11,7 @@
 
 #include "lib/h5.hpp"
 #include "studies/timestep/timestep.hpp"
+#include "tests/driver/temp_dir.hpp"
 #include "tests/studies/jamflow_exe.hpp"
 
 using namespace jamflow;
@@ -31,8 +32,9 @@ TEST(TimestepStudy, TinyQuickPreset) {
   p.strain_eq = 0.0;
   p.t_av_min = 480.0;
   p.strain_av = 0.0;
-  const std::string dir =
-      ::testing::TempDir() + "jamflow_timestep_study." + std::to_string(::getpid());
+  const testing_support::TempDir scratch(
+      "jamflow_timestep_study.");  // removed however the test ends
+  const std::string dir = scratch.path();
   std::filesystem::remove_all(dir);
   use_test_jamflow();
   StudyOptions o;
