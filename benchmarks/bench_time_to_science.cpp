@@ -43,20 +43,6 @@ struct Outcome {
   double cpu = 0, passes = 0;
 };
 
-std::vector<double> unwrapped(const State& s) {
-  const std::size_t n = s.size();
-  std::vector<double> out(3 * n);
-  const Eigen::Matrix3d h = s.box.h();
-  for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3d u(s.x()[i] + s.image[i], s.y()[i] + s.image[n + i],
-                            s.z()[i] + s.image[2 * n + i]);
-    const Eigen::Vector3d r = h * u;
-    for (int c = 0; c < 3; ++c)
-      out[3 * std::size_t(s.id[i]) + c] = r[c];
-  }
-  return out;
-}
-
 Outcome run(const State& init, const Ensemble& ens, const IntegratorSettings& settings, double t,
             double sample) {
   Model m(init, ModelOptions{2.0, 0.3, 1, 20});
@@ -74,7 +60,7 @@ Outcome run(const State& init, const Ensemble& ens, const IntegratorSettings& se
   }
   o.cpu = thread_cpu_seconds() - c0;
   o.passes = double(m.force_evaluations()) + statistic(integ->statistics(), "jtimes_evaluations");
-  o.positions = unwrapped(m.state());
+  o.positions = m.state().unwrapped_by_id();
   return o;
 }
 

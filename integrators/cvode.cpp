@@ -42,13 +42,7 @@ void CvodeOptions::validate() const {
 }
 
 double cvode_default_atol(double pressure, double alpha) {
-  // Overlap at which one contact carries a force of order P a^2: delta = (P/eps)^(1/(alpha-1)).
-  double delta = 0.0;
-  if (pressure > 0.0 && std::isfinite(pressure))
-    delta = std::pow(pressure, 1.0 / (alpha - 1.0));
-  if (!std::isfinite(delta))
-    delta = 1.0;
-  return 1e-3 * std::clamp(delta, 1e-9, 1.0);
+  return 1e-3 * typical_overlap(pressure, alpha);
 }
 
 // ---------------------------------------------------------------------------------------

@@ -17,6 +17,15 @@ constexpr double kMaxShift = 1e6;
 
 }  // namespace
 
+double typical_overlap(double pressure, double alpha) {
+  double delta = 0.0;
+  if (pressure > 0.0 && std::isfinite(pressure))
+    delta = std::pow(pressure, 1.0 / (alpha - 1.0));
+  if (!std::isfinite(delta))
+    delta = 1.0;
+  return std::clamp(delta, 1e-9, 1.0);
+}
+
 EquationOfMotion::EquationOfMotion(Model& model, const Ensemble& ensemble, bool symmetric_jacobian)
     : model_(model),
       ensemble_(ensemble),

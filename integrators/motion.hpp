@@ -40,6 +40,11 @@
 
 namespace jamflow {
 
+// The overlap at which one contact carries a force of order P a^2, delta = (P / eps)^(1 /
+// (alpha_r - 1)) a, clamped to [1e-9, 1] a (1 a for a pressure that is not positive and finite):
+// the length scale of the adaptive integrators' default tolerances.
+double typical_overlap(double pressure, double alpha);
+
 // The piston shrank the cell below what the neighbour list supports. Only the piston moves V,
 // and a cell this small stays too small for every smaller step, so a solver must not retry
 // with a smaller step: unrecoverable, unlike its base.

@@ -36,16 +36,6 @@ constexpr int kMaxRejections = 60;
 using Vec = Eigen::Map<Eigen::VectorXd>;
 using ConstVec = Eigen::Map<const Eigen::VectorXd>;
 
-// The typical overlap (P / eps)^(1 / (alpha - 1)) a, clamped to [1e-9, 1] a.
-double overlap_scale(double pressure, double alpha) {
-  double delta = 0.0;
-  if (pressure > 0.0 && std::isfinite(pressure))
-    delta = std::pow(pressure, 1.0 / (alpha - 1.0));
-  if (!std::isfinite(delta))
-    delta = 1.0;
-  return std::clamp(delta, 1e-9, 1.0);
-}
-
 double pressure_scale(const Ensemble& ensemble, const Evaluation& ev) {
   if (const auto p = ensemble.imposed_pressure())
     return *p;
@@ -92,7 +82,7 @@ double power_iteration(EquationOfMotion& sys, double t0, const std::vector<doubl
 // contacts stay in their linear range.
 double perturbation(const Model& model, const Ensemble& ensemble, const Evaluation& ev) {
   const double l = std::cbrt(model.state().box.volume());
-  return 1e-3 * overlap_scale(pressure_scale(ensemble, ev), model.force_field().alpha()) / l;
+  return 1e-3 * typical_overlap(pressure_scale(ensemble, ev), model.force_field().alpha()) / l;
 }
 
 }  // namespace
@@ -114,7 +104,7 @@ void RkcOptions::validate() const {
 }
 
 double rkc_default_atol(double pressure, double alpha) {
-  return 1e-2 * overlap_scale(pressure, alpha);
+  return 1e-2 * typical_overlap(pressure, alpha);
 }
 
 RkcCoefficients rkc_coefficients(int s) {

@@ -23,6 +23,19 @@ double State::particle_volume() const {
   return std::numbers::pi * sum / 6.0;
 }
 
+std::vector<double> State::unwrapped_by_id() const {
+  const std::size_t n = size();
+  std::vector<double> out(3 * n);
+  const Eigen::Matrix3d h = box.h();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d u(x()[i] + image[i], y()[i] + image[n + i], z()[i] + image[2 * n + i]);
+    const Eigen::Vector3d r = h * u;
+    for (int c = 0; c < 3; ++c)
+      out[3 * std::size_t(id[i]) + c] = r[c];
+  }
+  return out;
+}
+
 double State::packing_fraction() const {
   return particle_volume() / box.volume();
 }

@@ -37,6 +37,10 @@ struct State {
   Eigen::Vector3d scaled(std::size_t i) const { return {x()[i], y()[i], z()[i]}; }
   Eigen::Vector3d real(std::size_t i) const { return box.h() * scaled(i); }
 
+  // Real-space positions unwrapped by the image counters, by particle id (id-major: x, y, z of
+  // id 0, then id 1, ...): what follows a particle across wraps, for comparing trajectories.
+  std::vector<double> unwrapped_by_id() const;
+
   // Packing fraction pi sum d^3 / (6 V) (SPEC §3: the seed's formula lost the pi).
   double packing_fraction() const;
   // Sum of particle volumes, pi sum d^3 / 6.

@@ -220,18 +220,8 @@ std::unique_ptr<Ensemble> order_ensemble(Kind k) {
 std::vector<double> final_coordinates(Integrator& integ, const Ensemble& ens, double t_end) {
   Model m(dense_state(), ModelOptions{kOrderAlpha, 0.3, 1, 0});
   integ.advance(m, ens, t_end);
-  const State& s = m.state();
-  const std::size_t n = s.size();
-  std::vector<double> out(3 * n + 1);
-  const Eigen::Matrix3d h = s.box.h();
-  for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3d u(s.x()[i] + s.image[i], s.y()[i] + s.image[n + i],
-                            s.z()[i] + s.image[2 * n + i]);
-    const Eigen::Vector3d r = h * u;
-    for (int c = 0; c < 3; ++c)
-      out[3 * std::size_t(s.id[i]) + c] = r[c];
-  }
-  out[3 * n] = std::cbrt(s.box.volume());
+  std::vector<double> out = m.state().unwrapped_by_id();
+  out.push_back(std::cbrt(m.state().box.volume()));
   return out;
 }
 

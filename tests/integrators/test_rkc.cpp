@@ -128,21 +128,6 @@ TEST(RkcSpectralRadius, AgreesWithPowerIterationOnTheAnalyticHessianProduct) {
   EXPECT_GT(analytic_radius(a, pressure), 1.1 * analytic_radius(b, volume));
 }
 
-// Real-space unwrapped positions by id.
-std::vector<double> unwrapped(const State& s) {
-  const std::size_t n = s.size();
-  std::vector<double> out(3 * n);
-  const Eigen::Matrix3d h = s.box.h();
-  for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3d u(s.x()[i] + s.image[i], s.y()[i] + s.image[n + i],
-                            s.z()[i] + s.image[2 * n + i]);
-    const Eigen::Vector3d r = h * u;
-    for (int c = 0; c < 3; ++c)
-      out[3 * std::size_t(s.id[i]) + c] = r[c];
-  }
-  return out;
-}
-
 // Through several Lees–Edwards remaps and list rebuilds (strain 3 at gdot = 0.05), at both
 // ensembles: at a tight tolerance the positions agree with Euler extrapolated to dt -> 0.
 TEST(Rkc, FollowsTheZeroStepLimitOfEulerThroughRemaps) {
@@ -161,7 +146,7 @@ TEST(Rkc, FollowsTheZeroStepLimitOfEulerThroughRemaps) {
       Model ref(packing, ModelOptions{2.0, 0.3, 1, 0});
       Euler e(k == 0 ? 0.002 : 0.001);
       e.advance(ref, *ens, t_end);
-      euler[k] = unwrapped(ref.state());
+      euler[k] = ref.state().unwrapped_by_id();
       volumes[k] = ref.state().box.volume();
     }
     RkcOptions o;
@@ -174,7 +159,7 @@ TEST(Rkc, FollowsTheZeroStepLimitOfEulerThroughRemaps) {
     rkc.advance(m, *ens, t_end);
     EXPECT_EQ(m.state().time, t_end);
     EXPECT_GE(m.state().box.flips - flips0, 2) << "no remap was crossed";
-    const auto x = unwrapped(m.state());
+    const auto x = m.state().unwrapped_by_id();
     double euler_error = 0.0, worst = 0.0;
     for (std::size_t k = 0; k < x.size(); ++k) {
       const double exact = 2.0 * euler[1][k] - euler[0][k];
