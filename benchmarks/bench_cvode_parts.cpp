@@ -10,8 +10,6 @@
 // and the median round is printed.
 //
 // usage: bench_cvode_parts [--n N] [--phi PHI] [--rounds R] [--reps K]
-#include <time.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -23,18 +21,13 @@
 #include "ensembles/constant_volume.hpp"
 #include "integrators/cvode.hpp"
 #include "integrators/euler.hpp"
+#include "lib/cpu_clock.hpp"
 #include "lib/init.hpp"
 #include "lib/model.hpp"
 
 using namespace jamflow;
 
 namespace {
-
-double thread_seconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-}
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -61,28 +54,28 @@ Parts round_of(EquationOfMotion& sys, double t, int reps, std::mt19937_64& rng) 
   // The right-hand side, then (untimed order matters) the Jacobian data at the same point.
   double rhs = 0, js = 0;
   for (int k = 0; k < reps; ++k) {
-    const double a = thread_seconds();
+    const double a = cpu_clock();
     sys.rhs(t, ys[k].data(), ydot.data());
-    const double b = thread_seconds();
+    const double b = cpu_clock();
     sys.jacobian_setup(t, ys[k].data());
-    const double c = thread_seconds();
+    const double c = cpu_clock();
     rhs += b - a;
     js += c - b;
   }
   p.rhs = rhs / reps;
   p.jsetup = js / reps;
-  double a = thread_seconds();
+  double a = cpu_clock();
   for (int k = 0; k < reps; ++k)
     sys.jacobian_times(v.data(), jv.data());
-  p.jtimes = (thread_seconds() - a) / reps;
-  a = thread_seconds();
+  p.jtimes = (cpu_clock() - a) / reps;
+  a = cpu_clock();
   for (int k = 0; k < reps; ++k)
     sys.preconditioner_setup(0.1 + 1e-3 * k);
-  p.psetup = (thread_seconds() - a) / reps;
-  a = thread_seconds();
+  p.psetup = (cpu_clock() - a) / reps;
+  a = cpu_clock();
   for (int k = 0; k < reps; ++k)
     sys.preconditioner_solve(v.data(), z.data());
-  p.psolve = (thread_seconds() - a) / reps;
+  p.psolve = (cpu_clock() - a) / reps;
   return p;
 }
 

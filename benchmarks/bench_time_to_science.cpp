@@ -12,8 +12,6 @@
 //   d<sigma_xy>, d<P_hat>, d<phi>  relative error of the window means (samples every SAMPLE)
 // against a reference: explicit Euler at dt = 0.02 and 0.01, Richardson-extrapolated to dt -> 0
 // (its own remaining error is O(dt^2)).
-#include <time.h>
-
 #include <Eigen/Dense>
 #include <cmath>
 #include <cstdio>
@@ -24,18 +22,13 @@
 
 #include "ensembles/constant_pressure.hpp"
 #include "integrators/registry.hpp"
+#include "lib/cpu_clock.hpp"
 #include "lib/model.hpp"
 #include "lib/xyz.hpp"
 
 using namespace jamflow;
 
 namespace {
-
-double thread_cpu_seconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-}
 
 struct Outcome {
   std::vector<double> positions;  // unwrapped real space, by id
@@ -50,7 +43,7 @@ Outcome run(const State& init, const Ensemble& ens, const IntegratorSettings& se
   Outcome o;
   const double t0 = m.state().time;
   const long samples = std::lround(t / sample);
-  const double c0 = thread_cpu_seconds();
+  const double c0 = cpu_clock();
   for (long k = 1; k <= samples; ++k) {
     integ->advance(m, ens, t0 + double(k) * sample);
     const Evaluation& ev = m.evaluate();
@@ -58,7 +51,7 @@ Outcome run(const State& init, const Ensemble& ens, const IntegratorSettings& se
     o.pressure += ev.pressure / double(samples);
     o.phi += ev.phi / double(samples);
   }
-  o.cpu = thread_cpu_seconds() - c0;
+  o.cpu = cpu_clock() - c0;
   o.passes = double(m.force_evaluations()) + statistic(integ->statistics(), "jtimes_evaluations");
   o.positions = m.state().unwrapped_by_id();
   return o;

@@ -19,6 +19,7 @@
 #include "driver/checkpoint.hpp"
 #include "driver/verdicts.hpp"
 #include "integrators/registry.hpp"
+#include "lib/cpu_clock.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "lib/h5md.hpp"
@@ -657,13 +658,7 @@ namespace {
 // With OpenMP threads the force passes are spread over a team, so the whole process's CPU time
 // (CLOCK_PROCESS_CPUTIME_ID) is taken instead: it counts the team, and would also count
 // anything else the process does meanwhile (a `jamflow run` does nothing else, and the sweep
-// engine and the studies start one `jamflow run` process per point).
-double cpu_clock(bool process) {
-  timespec ts{};
-  if (clock_gettime(process ? CLOCK_PROCESS_CPUTIME_ID : CLOCK_THREAD_CPUTIME_ID, &ts) != 0)
-    return 0.0;
-  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-}
+// engine and the studies start one `jamflow run` process per point). lib/cpu_clock.hpp.
 
 // How long a run goes, decided from its samples so far (so a continued run decides the same).
 struct Length {

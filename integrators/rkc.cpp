@@ -80,9 +80,9 @@ double power_iteration(EquationOfMotion& sys, double t0, const std::vector<doubl
 
 // The perturbation of the power iteration: a thousandth of the overlap, in box lengths, so that
 // contacts stay in their linear range.
-double perturbation(const Model& model, const Ensemble& ensemble, const Evaluation& ev) {
+double perturbation(const Model& model, double pressure) {
   const double l = std::cbrt(model.state().box.volume());
-  return 1e-3 * typical_overlap(pressure_scale(ensemble, ev), model.force_field().alpha()) / l;
+  return 1e-3 * typical_overlap(pressure, model.force_field().alpha()) / l;
 }
 
 }  // namespace
@@ -150,8 +150,7 @@ RkcCoefficients rkc_coefficients(int s) {
 }
 
 double rkc_spectral_radius(Model& model, const Ensemble& ensemble, long long* evaluations) {
-  const Evaluation& ev = model.evaluate();
-  const double dv = perturbation(model, ensemble, ev);
+  const double dv = perturbation(model, pressure_scale(ensemble, model.evaluate()));
   EquationOfMotion sys(model, ensemble, false);
   std::vector<double> f0(sys.size());
   sys.rhs_at_reference(f0.data());
@@ -194,7 +193,9 @@ void Rkc::advance(Model& model, const Ensemble& ensemble, double t_end) {
     model.prepare_step();
     if (model.state().box.flips != flips)
       need_dom_eig_ = true;  // a remap: the same physics, but a discrete event of the cell
-    const Evaluation& ev = model.evaluate();  // before the reference: no wrap comes after it
+    // Evaluated before the reference is taken, so that no list wrap comes after it; the pressure
+    // scale of the tolerances is this state's (the stages overwrite the model's evaluation).
+    const double p_scale = pressure_scale(ensemble, model.evaluate());
     const double t0 = model.state().time;
     double t_stop = t_end;
     EquationOfMotion sys(model, ensemble, false);
@@ -209,8 +210,7 @@ void Rkc::advance(Model& model, const Ensemble& ensemble, double t_end) {
     // Error weights: atol in box lengths for each particle, 3 atol / l for the relative volume.
     const double l = std::cbrt(model.state().box.volume());
     const double atol =
-        options_.atol ? *options_.atol
-                      : rkc_default_atol(pressure_scale(ensemble, ev), model.force_field().alpha());
+        options_.atol ? *options_.atol : rkc_default_atol(p_scale, model.force_field().alpha());
     const double atol_u = atol / l;
     const double atol_w = 3.0 * atol / l;
     const std::size_t np = 3 * model.state().size();
@@ -219,8 +219,7 @@ void Rkc::advance(Model& model, const Ensemble& ensemble, double t_end) {
     bool fresh = false;  // rho was estimated at this step's start
     for (;;) {
       if (need_dom_eig_ && !fresh) {
-        rho_ = power_iteration(sys, t0, w.f0, perturbation(model, ensemble, ev),
-                               &dom_eig_evaluations_);
+        rho_ = power_iteration(sys, t0, w.f0, perturbation(model, p_scale), &dom_eig_evaluations_);
         if (!(rho_ > 0.0))
           rho_ = 1e-12;  // no contacts: any stage count is stable
         need_dom_eig_ = false;
