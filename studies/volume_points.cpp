@@ -49,13 +49,7 @@ std::string volume_sweep_text(const VolumePreset& g) {
         teq_axis.push_back(t_eq);
         tav_axis.push_back(t_av);
         sample_axis.push_back(round3(t_av / g.samples));
-        const hard_sphere::IntegratorChoice ic = hard_sphere::integrator_for(n, p);
-        toml::table integ{{"kind", ic.kind}};
-        if (ic.kind == "cvode")
-          integ.insert("rtol", ic.rtol);
-        else
-          integ.insert("dt", ic.dt);
-        integ_axis.push_back(std::move(integ));
+        integ_axis.push_back(hard_sphere::integrator_table(hard_sphere::integrator_for(n, p)));
       }
     }
   }

@@ -41,14 +41,18 @@ GridPreset grid_preset(const std::string& preset) {
     g.samples = 200;
     g.why = "the pipeline end to end on N = 256 in about a CPU-minute; not the physics";
   } else if (preset == "standard") {
+    // The hard-sphere limit at N = 1000: P = 1e-5 and a guard pressure 3e-5 that shows the
+    // envelope is reached (at P >= 3e-4 phi still moved by 0.004-0.005 between pressures), J
+    // over 3.5 decades, three replicas, t_eq = t_av = 1/gdot (strain 2 per point). RKC at
+    // atol = delta costs about 7.5 CPU us per tau_0 at P = 1e-5 (benchmarks/README.md), so
+    // the preset is about 9 CPU-hours, two thirds of it at J = 3e-4.
     g.sizes = {1000};
-    g.pressures = {1e-2, 3e-3, 1e-3, 3e-4};
-    g.js = {1.0, 0.3, 0.1, 0.03, 0.01, 3e-3, 1e-3};
-    g.gdot_min = 3.1e-7;  // leaves out P = 3e-4, J = 1e-3 (a third of the cost alone)
-    // Two replicas: a replica of the slowest point took 1700 s on a shared 2-core machine
-    // (95 ns per particle force evaluation), so three would not fit in about 2 hours.
-    g.replicas = 2;
-    g.why = "N = 1000, J from 1 to 1e-3 at four pressures, two replicas: about 2 h on 2 cores";
+    g.pressures = {3e-5, 1e-5};
+    g.js = {1.0, 0.3, 0.1, 0.03, 0.01, 3e-3, 1e-3, 3e-4};
+    g.replicas = 3;
+    g.strain_eq = 1.0;
+    g.t_av_is_t_eq = true;
+    g.why = "N = 1000 at P = 3e-5 and 1e-5, J from 1 to 3e-4, three replicas: about 9 CPU-hours";
   } else if (preset == "paper") {
     g.sizes = {100, 300, 500, 1000, 3000, 10000};
     g.pressures = {1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5};
@@ -69,23 +73,24 @@ GridPreset finite_size_preset(const std::string& preset) {
     g.pressures = {3e-3, 1e-3};
     g.why = "four sizes (the large-N fit needs four) in a few CPU-minutes; not the physics";
   } else if (preset == "standard") {
-    // The hard-sphere limit within a 2-core budget: at N = 1000 phi still moves by 0.0045
-    // from P = 1e-3 to 3e-4 at fixed J (the hard-sphere standard results), so the envelope
-    // needs P <= 1e-4; there CVODE costs about 0.14 us per particle per tau_0, which is
-    // affordable for N <= 500 at gdot >= 1.5e-6 (J >= 0.06 at P = 3e-5, J >= 0.25 at 1e-5).
-    g.sizes = {100, 200, 300, 500};
-    g.pressures = {1e-4, 3e-5, 1e-5};
-    g.js = {1.0, 0.5, 0.25, 0.12, 0.06, 0.03};
-    g.gdot_min = 1.5e-6;
-    g.replicas = 2;
-    g.why = "four sizes from 100 to 500 at P = 1e-4 to 1e-5, J from 1 to 0.03, two replicas";
+    // The hard-sphere standard points over N = 250 to 2000 (cost about proportional to N),
+    // J down to 1e-3: about 10 CPU-hours with RKC at atol = delta.
+    g.sizes = {250, 500, 1000, 2000};
+    g.js = {1.0, 0.3, 0.1, 0.03, 0.01, 3e-3, 1e-3};
+    g.why = "N = 250, 500, 1000, 2000 at P = 3e-5 and 1e-5, J from 1 to 1e-3, three replicas";
   }
   return g;
 }
 
 IntegratorChoice integrator_for(std::int64_t n, double pressure) {
-  if (pressure <= 1e-4)
-    return {"cvode", 0.0, 1e-5, "", 0, "CVODE (rtol 1e-5): cheapest near jamming (P <= 1e-4)"};
+  if (pressure <= 1e-4) {
+    // atol in units of the typical overlap delta = P (alpha_r = 2).
+    IntegratorChoice c{
+        "rkc", 0.0, 0.0,
+        "",    0,   "RKC, atol = delta: cheapest near jamming at equal window means (P <= 1e-4)"};
+    c.atol = pressure;
+    return c;
+  }
   if (n >= 500)
     return {"respa", 1.0, 0.0, "", 0, "RESPA, particles inner, dt = 1: stable at N >= 500"};
   if (n >= 250)
@@ -100,6 +105,21 @@ IntegratorChoice integrator_for(std::int64_t n, double pressure) {
           "box"};
 }
 
+toml::table integrator_table(const IntegratorChoice& ic) {
+  toml::table integ{{"kind", ic.kind}};
+  if (ic.kind == "cvode")
+    integ.insert("rtol", ic.rtol);
+  else if (ic.kind == "rkc")
+    integ.insert("atol", ic.atol);
+  else
+    integ.insert("dt", ic.dt);
+  if (!ic.inner.empty()) {
+    integ.insert("inner", ic.inner);
+    integ.insert("n_inner", ic.n_inner);
+  }
+  return integ;
+}
+
 std::string sweep_text(const GridPreset& g) {
   toml::array n_axis, phi_axis, p_axis, rate_axis, teq_axis, tav_axis, sample_axis, integ_axis;
   for (const auto n : g.sizes) {
@@ -110,7 +130,8 @@ std::string sweep_text(const GridPreset& g) {
           continue;
         const double t_eq =
             round3(std::max({g.strain_eq / gdot, g.relax_pressure / p, g.t_eq_min}));
-        const double t_av = round3(std::max(g.strain_av / gdot, g.t_av_min));
+        const double t_av =
+            g.t_av_is_t_eq ? t_eq : round3(std::max(g.strain_av / gdot, g.t_av_min));
         n_axis.push_back(n);
         // The start: the seed's hard-sphere law, 0.01 lower and at most 0.63.
         phi_axis.push_back(std::round(phi_start(j, n, 0.01, 0.63) * 1e4) / 1e4);
@@ -119,17 +140,7 @@ std::string sweep_text(const GridPreset& g) {
         teq_axis.push_back(t_eq);
         tav_axis.push_back(t_av);
         sample_axis.push_back(round3(t_av / g.samples));
-        const IntegratorChoice ic = integrator_for(n, p);
-        toml::table integ{{"kind", ic.kind}};
-        if (ic.kind == "cvode")
-          integ.insert("rtol", ic.rtol);
-        else
-          integ.insert("dt", ic.dt);
-        if (!ic.inner.empty()) {
-          integ.insert("inner", ic.inner);
-          integ.insert("n_inner", ic.n_inner);
-        }
-        integ_axis.push_back(std::move(integ));
+        integ_axis.push_back(integrator_table(integrator_for(n, p)));
       }
     }
   }

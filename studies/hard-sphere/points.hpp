@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include <toml++/toml.h>
+
 namespace jamflow::studies::hard_sphere {
 
 struct GridPreset {
@@ -23,21 +25,22 @@ struct GridPreset {
   // overlaps pushed it out) to within 0.002 of its steady value by t = 1.5 / P, so t_eq is also
   // at least relax_pressure / P.
   double strain_eq = 1.0, strain_av = 3.0;
+  bool t_av_is_t_eq = false;  // t_av = t_eq, as the seed does (then strain_av is unused)
   double relax_pressure = 5.0;
   double t_eq_min = 500.0, t_av_min = 1000.0;
   int samples = 1000;  // per averaging window (20 blocks of 50)
   std::string why;     // one line: what the preset is for
 };
 
-// quick (CI: the pipeline end to end, not the physics), standard (about 2 h on 2 cores:
-// N = 1000, J over 3 decades), paper (the seed's grid, for a cluster).
+// quick (CI: the pipeline end to end, not the physics), standard (about 9 CPU-hours: N = 1000
+// at P = 3e-5 and 1e-5, J from 1 to 3e-4), paper (the seed's grid, for a cluster).
 GridPreset grid_preset(const std::string& preset);
 // The finite-size study's sizes over the same grid.
 GridPreset finite_size_preset(const std::string& preset);
 
-// The integrator of a point (the timestep study's findings, SPEC §4): CVODE (BDF, rtol 1e-5)
-// near jamming (P <= 1e-4), else RESPA with the particles on the inner level at dt = 1
-// (stable at N >= 500), dt = 0.5 for 250 <= N < 500, and below N = 250 RESPA with the piston
+// The integrator of a point (the timestep study's findings, SPEC §4, benchmarks/README.md):
+// RKC at atol = delta near jamming (P <= 1e-4), else RESPA with the particles on the inner level at
+// dt = 1 (stable at N >= 500), dt = 0.5 for 250 <= N < 500, and below N = 250 RESPA with the piston
 // on the inner level (8 sub-steps) at dt = 0.1: the piston's rate K / (V xi_V) is large in small
 // boxes (explicit Euler at dt = 0.1 oscillated at N = 64, P = 1e-2: force-step correlation
 // -0.53, energy balance 0.002), and dt = 0.1 is the seed's small-N step (lanes at dt >= 0.3).
@@ -48,8 +51,11 @@ struct IntegratorChoice {
   std::string inner;  // RESPA's inner level
   int n_inner = 0;
   std::string why;
+  double atol = 0.0;  // RKC's absolute tolerance
 };
 IntegratorChoice integrator_for(std::int64_t n, double pressure);
+// The [integrator] table of a choice, as a sweep's zip carries it.
+toml::table integrator_table(const IntegratorChoice& choice);
 
 // Writes the preset's sweep file (base scene and the zip of every point) and returns its text.
 std::string sweep_text(const GridPreset& preset);

@@ -51,7 +51,11 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
   // Integrator label of a point, as integrator_for chose it.
   const auto label = [](std::int64_t n, double p) {
     const IntegratorChoice ic = integrator_for(n, p);
-    return ic.kind == "cvode" ? std::string("cvode") : ic.kind + " dt " + num(ic.dt, 2);
+    if (ic.kind == "cvode")
+      return std::string("cvode");
+    if (ic.kind == "rkc")
+      return std::string("rkc atol=delta");
+    return ic.kind + " dt " + num(ic.dt, 2);
   };
   std::map<std::string, double> estimated_per_point;  // point name -> estimated CPU seconds
   {

@@ -37,32 +37,37 @@ TEST(HardSpherePoints, StandardGridIsEveryPressureAndJAboveTheRateFloor) {
     // Lengths in strain and in units of the compaction time 1/P (3 significant digits).
     EXPECT_GE(t_eq * rate, g.strain_eq * 0.995) << pt.name;
     EXPECT_GE(t_eq * pressure, g.relax_pressure * 0.995) << pt.name;
-    EXPECT_GE(t_av * rate, g.strain_av * 0.995) << pt.name;
+    // t_av = t_eq, as the seed does.
+    EXPECT_DOUBLE_EQ(t_av, t_eq) << pt.name;
     EXPECT_EQ(pt.name.find("99999"), std::string::npos) << pt.name;  // rounded decimals
-    EXPECT_EQ(pt.scene.table("integrator")->get("kind")->as_string()->get(), "respa");
+    // RKC at atol = delta = P near jamming.
+    const auto* integ = pt.scene.table("integrator");
+    EXPECT_EQ(integ->get("kind")->as_string()->get(), "rkc");
+    EXPECT_DOUBLE_EQ(integ->get("atol")->as_floating_point()->get(), pressure);
   }
   EXPECT_EQ(names.size(), p.points.size());
-  EXPECT_NE(names.count("pressure-0.003_rate-9e-05_N-1000"), 0u);
+  EXPECT_NE(names.count("pressure-1e-05_rate-3e-09_N-1000"), 0u);  // J = 3e-4
 }
 
 TEST(HardSpherePoints, IntegratorFollowsSizeAndPressure) {
-  EXPECT_EQ(integrator_for(1000, 1e-5).kind, "cvode");
+  EXPECT_EQ(integrator_for(1000, 1e-5).kind, "rkc");
+  EXPECT_EQ(integrator_for(1000, 1e-5).atol, 1e-5);
   EXPECT_EQ(integrator_for(1000, 1e-3).kind, "respa");
   EXPECT_EQ(integrator_for(1000, 1e-3).dt, 1.0);
   EXPECT_EQ(integrator_for(300, 1e-3).dt, 0.5);
   EXPECT_EQ(integrator_for(100, 1e-3).inner, "piston");
-  // The paper preset's sweep is valid in every point (CVODE has no dt key, RESPA has one).
+  // The paper preset's sweep is valid in every point (RKC has no dt key, RESPA has one).
   const sweep::Plan paper = plan_of(grid_preset("paper"));
-  bool cvode = false, piston = false;
+  bool rkc = false, piston = false;
   for (const auto& pt : paper.points) {
     const auto* in = pt.scene.table("integrator");
-    cvode = cvode || in->get("kind")->as_string()->get() == "cvode";
+    rkc = rkc || in->get("kind")->as_string()->get() == "rkc";
     piston = piston || (in->get("inner") && in->get("inner")->as_string()->get() == "piston");
-    if (in->get("kind")->as_string()->get() == "cvode") {
+    if (in->get("kind")->as_string()->get() == "rkc") {
       EXPECT_EQ(in->get("dt"), nullptr);
     }
   }
-  EXPECT_TRUE(cvode);
+  EXPECT_TRUE(rkc);
   EXPECT_TRUE(piston);
 }
 
