@@ -20,7 +20,7 @@ void print_dry_run(const sweep::Plan& plan) {
   std::printf("sweep %s: %zu points x %lld replicas = %zu runs -> %s\n", plan.name.c_str(),
               plan.points.size(), static_cast<long long>(plan.replicas), tasks.size(),
               plan.out_dir.c_str());
-  std::printf("  %-48s %8s %12s  %s\n", "point", "N", "forces x N", "state");
+  std::printf("  %-48s %8s %12s  %s\n", "point", "N", "CPU s", "state");
   for (const auto& p : plan.points) {
     std::string states;
     for (const auto& t : tasks) {
@@ -31,9 +31,9 @@ void print_dry_run(const sweep::Plan& plan) {
                 states.c_str());
   }
   std::printf(
-      "  expected work: %.3g particle force evaluations, about %.3g CPU-hours (40 ns "
-      "each; CVODE counted as 4 per tau_0)\n",
-      cost.particle_steps, cost.cpu_hours);
+      "  expected work: about %.3g CPU-hours (each integrator's measured CPU time per particle "
+      "and tau_0; CPU s per replica above)\n",
+      cost.cpu_hours);
 }
 
 }  // namespace

@@ -502,6 +502,19 @@ double Cvode::force_passes_per_time(const Ensemble& /*ensemble*/) const {
   return std::numeric_limits<double>::quiet_NaN();
 }
 
+// CPU time per tau_0 at N = 1000, alpha_r = 2, constant pressure, one thread: 53-55 us at
+// rtol 1e-4 for P = 1e-5 and J = 0.1 to 1e-3 (benchmarks/README.md, "Time to science"); in the
+// timestep study's standard runs 57 (P = 1e-5, J = 0.3) and 316 us (P = 1e-3, J = 0.1) at
+// rtol 1e-4, 2x more at J = 1, and 1.9-4.4x more at rtol 1e-6: about
+// P^0.35 rtol^-0.2 max(1, J / 0.1)^0.3, within a factor of 2 of every one of those runs.
+double Cvode::cpu_seconds_per_particle_time(const Ensemble& /*ensemble*/,
+                                            const CostPoint& at) const {
+  const double p = std::clamp(at.pressure, 1e-7, 1e-1);
+  const double j = std::max(1.0, at.viscous_number() / 0.1);
+  return 54e-9 * std::pow(p / 1e-5, 0.35) * std::pow(options().rtol / 1e-4, -0.2) *
+         std::pow(j, 0.3);
+}
+
 // Costs against one force pass (a right-hand side: 24-30 us), measured with
 // benchmarks/bench_cvode_parts on N = 1000, phi = 0.62, alpha_r = 2, gdot = 1e-3, one thread,
 // CPU time of the thread, median of 9 rounds of 300 calls, constant volume / constant pressure:

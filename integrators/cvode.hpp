@@ -109,6 +109,9 @@ class Cvode final : public Integrator {
   int order() const override { return 1; }
   // Adaptive: the cost per unit time is known only once it ran (NaN).
   double force_passes_per_time(const Ensemble& ensemble) const override;
+  // Measured (cvode.cpp): grows with the pressure, hardly with the tolerance.
+  double cpu_seconds_per_particle_time(const Ensemble& ensemble,
+                                       const CostPoint& at) const override;
   // The model's force evaluations plus the Jacobian work weighted by its measured cost against
   // one force pass (cvode.cpp: the contact data of each Jacobian setup, the Jacobian-vector
   // products, the preconditioner setups and solves).

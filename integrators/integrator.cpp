@@ -7,6 +7,11 @@
 
 namespace jamflow {
 
+double Integrator::cpu_seconds_per_particle_time(const Ensemble& ensemble,
+                                                 const CostPoint& /*at*/) const {
+  return force_passes_per_time(ensemble) * kCpuSecondsPerParticlePass;
+}
+
 void move_cell(State& state, double dstrain, double new_volume) {
   state.box.strain += dstrain;
   if (new_volume != state.box.volume())

@@ -16,6 +16,11 @@
 
 namespace jamflow {
 
+// CPU seconds of one particle's force pass and drift on one thread inside a run, N = 1000,
+// alpha_r = 2 (benchmarks/README.md, "Time to science"): Euler 14.6 ns at P = 1e-5 and 19.5 ns at
+// P = 1e-3, RESPA 13.9 and 17.6 ns (its force passes per tau_0 over its CPU time per tau_0).
+inline constexpr double kCpuSecondsPerParticlePass = 17e-9;
+
 class Integrator {
  public:
   virtual ~Integrator() = default;
@@ -35,6 +40,20 @@ class Integrator {
   // integrators what the scheme costs per step over dt (Euler: 1 / dt); NaN for adaptive ones,
   // whose cost is known only once they ran (force_pass_equivalents()).
   virtual double force_passes_per_time(const Ensemble& ensemble) const = 0;
+
+  // Expected CPU seconds per particle per unit time on one thread, for cost estimates (a
+  // sweep's dry-run and the order in which it runs its tasks). Adaptive integrators' costs
+  // depend on the state point: `at` gives its pressure (imposed, or a stand-in at constant
+  // volume), shear rate and alpha_r. Measured at N = 1000, alpha_r = 2 on one thread
+  // (benchmarks/README.md, "Time to science"): an estimate to about a factor of 2, not a
+  // prediction. Default: the nominal force passes per time at kCpuSecondsPerParticlePass.
+  struct CostPoint {
+    double pressure = 1e-4;
+    double shear_rate = 1e-5;
+    double alpha = 2.0;
+    double viscous_number() const { return shear_rate / pressure; }  // J = gdot xi_s / P
+  };
+  virtual double cpu_seconds_per_particle_time(const Ensemble& ensemble, const CostPoint& at) const;
 
   // The cost so far, in force-pass equivalents: the model's force evaluations plus whatever
   // else the integrator computes, weighted by its cost relative to one force pass (CVODE's

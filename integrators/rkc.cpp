@@ -322,6 +322,20 @@ double Rkc::force_passes_per_time(const Ensemble& /*ensemble*/) const {
   return std::numeric_limits<double>::quiet_NaN();
 }
 
+// CPU time per tau_0 at N = 1000, alpha_r = 2, constant pressure, one thread
+// (benchmarks/README.md, "Time to science"): at atol = delta 7.3-7.7 us for P = 1e-5 (J = 0.1 to
+// 1e-3) and 20.7 us at P = 1e-3, J = 0.1; at atol = 0.01 delta 22-22.5 and 78.8 us. The timestep
+// study's standard runs agree (21-74 us at P = 1e-3, J = 0.1) and cost 1.4-3x more at J = 1:
+// about P^0.21 (atol / delta)^-0.26 max(1, J / 0.1)^0.4.
+double Rkc::cpu_seconds_per_particle_time(const Ensemble& /*ensemble*/, const CostPoint& at) const {
+  const double p = std::clamp(at.pressure, 1e-7, 1e-1);
+  const double delta = typical_overlap(p, at.alpha);
+  const double atol = options_.atol ? *options_.atol : rkc_default_atol(p, at.alpha);
+  const double j = std::max(1.0, at.viscous_number() / 0.1);
+  return 7.7e-9 * std::pow(p / 1e-5, 0.21) * std::pow(std::clamp(atol / delta, 1e-4, 1e2), -0.26) *
+         std::pow(j, 0.4);
+}
+
 std::vector<std::pair<std::string, double>> Rkc::statistics() const {
   return {{"steps", double(steps_)},
           {"rejected_steps", double(rejected_)},

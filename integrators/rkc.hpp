@@ -117,6 +117,9 @@ class Rkc final : public Integrator {
   int order() const override { return 2; }
   // Adaptive: the cost per unit time is known only once it ran (NaN).
   double force_passes_per_time(const Ensemble& ensemble) const override;
+  // Measured (rkc.cpp): grows with the pressure and as atol / delta falls.
+  double cpu_seconds_per_particle_time(const Ensemble& ensemble,
+                                       const CostPoint& at) const override;
   void advance(Model& model, const Ensemble& ensemble, double t_end) override;
   void reset() override;
   std::vector<std::pair<std::string, double>> statistics() const override;

@@ -28,14 +28,11 @@ struct RunsLeft {
 
 // The plan's finished runs and what is left, added to the tally of `study paper --dry-run`
 // (each distinct scene once).
-RunsLeft count_runs(const sweep::Plan& plan, const sweep::CostEstimate& cost,
-                    StudyOptions::DryRunTally* tally) {
+RunsLeft count_runs(const sweep::Plan& plan, StudyOptions::DryRunTally* tally) {
   RunsLeft left;
-  const double hours_per_step =
-      cost.particle_steps > 0.0 ? cost.cpu_hours / cost.particle_steps : 0.0;
   for (const auto& t : plan.tasks()) {
     const bool done = sweep::probe(plan, t) == sweep::TaskState::kDone;
-    const double hours = hours_per_step * t.cost;
+    const double hours = t.cost / 3600.0;  // Task::cost is in CPU seconds
     left.finished += done ? 1 : 0;
     left.cpu_hours += done ? 0.0 : hours;
     if (tally && tally->scenes.insert(plan.task_scene(t).text()).second) {
@@ -75,15 +72,15 @@ std::optional<int> run_sweep_study(const std::string& study, const std::string& 
   const bool finished_stage = !stage.name.empty() && all_done(out.plan);
   if (options.dry_run) {
     // A finished stage is counted in the tally, and read back for the next stage.
-    const RunsLeft left = count_runs(out.plan, cost, options.tally);
+    const RunsLeft left = count_runs(out.plan, options.tally);
     if (!finished_stage) {
       std::printf(
-          "%s --preset %s: %zu points x %lld replicas = %zu runs, %.3g particle force "
-          "evaluations, about %.3g CPU-hours (40 ns each; CVODE counted as 4 per tau_0); "
-          "%zu finished, about %.3g CPU-hours left -> %s%s\n",
+          "%s --preset %s: %zu points x %lld replicas = %zu runs, about %.3g CPU-hours (each "
+          "integrator's measured CPU time per particle and tau_0); %zu finished, about %.3g "
+          "CPU-hours left -> %s%s\n",
           what.c_str(), options.preset.c_str(), out.plan.points.size(),
-          static_cast<long long>(out.plan.replicas), cost.tasks, cost.particle_steps,
-          cost.cpu_hours, left.finished, left.cpu_hours, out.plan.out_dir.c_str(), next.c_str());
+          static_cast<long long>(out.plan.replicas), cost.tasks, cost.cpu_hours, left.finished,
+          left.cpu_hours, out.plan.out_dir.c_str(), next.c_str());
       if (stage.last)
         return 0;
       out.counted_only = true;

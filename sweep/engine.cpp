@@ -25,13 +25,6 @@ extern "C" void on_engine_signal(int sig) {
     g_stop.store(sig);
 }
 
-// CPU seconds of one particle's force evaluation and drift on one core: 19-23 ns in the
-// throughput benchmark (N = 10000, README "Benchmark"); 30-32 ns of the run's CPU time
-// (cpu_seconds) for whole Euler runs at N = 1000, phi = 0.62, constant volume (lists, sampling),
-// while their wall time on the shared 2-core machine gave 100-185 ns. 40 ns leaves room for the
-// piston and the pow loop (alpha_r != 2).
-constexpr double kSecondsPerParticleStep = 40e-9;
-
 }  // namespace
 
 void install_signal_handlers() {
@@ -98,9 +91,8 @@ CostEstimate estimate_cost(const Plan& plan) {
   CostEstimate c;
   for (const auto& t : plan.tasks()) {
     ++c.tasks;
-    c.particle_steps += t.cost;
+    c.cpu_hours += t.cost / 3600.0;
   }
-  c.cpu_hours = c.particle_steps * kSecondsPerParticleStep / 3600.0;
   return c;
 }
 

@@ -42,11 +42,10 @@ std::string write_slurm_script(const Plan& plan, SlurmOptions options);
 // binary themselves), else this process's binary.
 std::string jamflow_exe();
 
-// Expected work of a plan's tasks in particle force evaluations, and a CPU-hour estimate at
-// the measured CPU time of one force pass and drift on one core (engine.cpp).
+// Expected CPU hours of a plan's tasks: each integrator's measured CPU time per particle and
+// unit time (Integrator::cpu_seconds_per_particle_time) over the runs' lengths.
 struct CostEstimate {
   std::size_t tasks = 0;
-  double particle_steps = 0.0;  // particle force evaluations
   double cpu_hours = 0.0;
 };
 CostEstimate estimate_cost(const Plan& plan);

@@ -126,20 +126,23 @@ void anchor_init(Scene& scene, const fs::path& dir) {
   scene.set_value("system.init", toml::value<std::string>((dir / p).lexically_normal().string()));
 }
 
-// Expected particle force evaluations of one replica: N x (t_eq + t_av, or max_time) x force
-// passes per unit time, as the integrator answers it for the run's ensemble
-// (Integrator::force_passes_per_time: Euler 1 / dt, RESPA from its scheme, n_inner and piston);
-// CVODE, whose steps adapt: 4 per tau_0, what RESPA at dt = 1 costs at constant volume (a
-// relative cost only). At most the run's budget, N x [run] max_force_evaluations.
+// Expected CPU seconds of one replica: N x (t_eq + t_av, or max_time) x the integrator's
+// measured CPU seconds per particle and unit time (Integrator::cpu_seconds_per_particle_time)
+// at the run's imposed pressure and shear rate; 1e-4 stands in for the pressure at constant
+// volume, where it is known only once the run ran. At most the run's budget: N x [run]
+// max_force_evaluations force passes at kCpuSecondsPerParticlePass.
 double expected_cost(const RunSpec& spec) {
   const double n = spec.init_state ? double(spec.init_state->size()) : double(spec.n);
   const double length = spec.auto_av ? spec.max_time : spec.t_eq + spec.t_av;
-  const double nominal = spec.make_integrator()->force_passes_per_time(*spec.ensemble);
-  const double per_time = std::isfinite(nominal) ? nominal : 4.0;
-  const double cost = n * length * per_time;
-  // A run stops at its budget of force evaluations ([run] max_force_evaluations).
-  return spec.max_force_evaluations > 0 ? std::min(cost, n * double(spec.max_force_evaluations))
-                                        : cost;
+  Integrator::CostPoint at;
+  at.pressure = spec.ensemble->imposed_pressure().value_or(1e-4);
+  at.shear_rate = spec.shear_rate;
+  at.alpha = spec.alpha;
+  const double cost =
+      n * length * spec.make_integrator()->cpu_seconds_per_particle_time(*spec.ensemble, at);
+  return spec.max_force_evaluations > 0
+             ? std::min(cost, n * double(spec.max_force_evaluations) * kCpuSecondsPerParticlePass)
+             : cost;
 }
 
 }  // namespace

@@ -33,7 +33,7 @@ struct Point {
   std::vector<std::pair<std::string, std::string>> values;  // varied key -> value as TOML text
   Scene scene;  // base + values; output file, seed, threads and replicas are set per task
   std::int64_t n = 0;
-  double cost = 0.0;  // expected particle force evaluations of one replica (see plan.cpp)
+  double cost = 0.0;  // expected CPU seconds of one replica (see plan.cpp)
 };
 
 // One replica of one point: what a worker runs.

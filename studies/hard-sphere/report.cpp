@@ -58,12 +58,8 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
     return ic.kind + " dt " + num(ic.dt, 2);
   };
   std::map<std::string, double> estimated_per_point;  // point name -> estimated CPU seconds
-  {
-    const double per_step = sweep::estimate_cost(run.plan).cpu_hours * 3600.0 /
-                            std::max(sweep::estimate_cost(run.plan).particle_steps, 1.0);
-    for (const auto& t : run.plan.tasks())
-      estimated_per_point[run.plan.points[t.point].name] += t.cost * per_step;
-  }
+  for (const auto& t : run.plan.tasks())              // Task::cost is in CPU seconds
+    estimated_per_point[run.plan.points[t.point].name] += t.cost;
   std::map<std::string, Cost> by_kind;
   Cost all;
   std::string slowest;
@@ -122,35 +118,22 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
                        rows)
      << "\nThe most expensive point: " << slowest << ", " << num(slowest_seconds, 3)
      << " CPU seconds over its replicas. The estimate before the run was "
-     << num(run.cpu_hours_estimate, 3) << " CPU-hours (40 ns per force evaluation).\n";
+     << num(run.cpu_hours_estimate, 3)
+     << " CPU-hours (each integrator's measured CPU time per particle and tau_0)";
+  if (all.estimated_seconds > 0.0 && all.seconds > 0.0)
+    md << "; the finished points took " << num(all.seconds / all.estimated_seconds, 2)
+       << " times their estimate";
+  md << ".\n";
   try {
     const GridPreset paper =
         study == "finite-size" ? finite_size_preset("paper") : grid_preset("paper");
     const sweep::Plan plan = sweep::parse_plan(sweep_text(paper), "<paper preset>", ".", "paper");
     const sweep::CostEstimate est = sweep::estimate_cost(plan);
-    // Scale each integrator's share of the estimate by what that integrator measured here
-    // against its estimate (CVODE's steps, and so its cost per tau_0, are a guess there).
-    const double per_step = est.cpu_hours / std::max(est.particle_steps, 1.0);
-    double projected = 0.0, unmeasured = 0.0;
-    for (const auto& t : plan.tasks()) {
-      const RunSpec spec = parse_run_spec(plan.task_scene(t));
-      const auto it = by_kind.find(label(spec.n, spec.ensemble->imposed_pressure().value_or(0.0)));
-      const double hours = t.cost * per_step;
-      if (it != by_kind.end() && it->second.estimated_seconds > 0.0)
-        projected += hours * it->second.seconds / it->second.estimated_seconds;
-      else
-        unmeasured += hours;
-    }
     md << "\nThe paper preset (" << plan.points.size() << " points x " << plan.replicas
        << " replicas) is estimated at " << num(est.cpu_hours, 3)
-       << " CPU-hours at 40 ns per force evaluation (`jamflow study " << study
-       << " --preset paper --dry-run`). Scaled by each integrator's measured cost against that "
-          "estimate here: about "
-       << num(projected + unmeasured, 3) << " CPU-hours";
-    if (unmeasured > 0.0)
-      md << ", of which " << num(unmeasured, 3)
-         << " are for integrators this preset did not use (left at the estimate)";
-    md << ".\n";
+       << " CPU-hours by the same model (`jamflow study " << study
+       << " --preset paper --dry-run`; `jamflow study paper --preset paper --dry-run` sums every "
+          "study's).\n";
   } catch (const std::exception& e) {
     md << "\n(The paper preset could not be estimated: " << e.what() << ")\n";
   }
@@ -252,7 +235,9 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
      << run.finished << " finished in every replica (table.csv); the sweep is in runs/ "
      << "(`jamflow sweep sweep.toml --out runs`).\n";
   md << "- Cost: estimated " << num(run.cpu_hours_estimate, 3)
-     << " CPU-hours at Euler's throughput; this invocation took " << num(wall_seconds / 60.0, 3)
+     << " CPU-hours (each integrator's measured CPU time per particle and tau_0); this "
+        "invocation took "
+     << num(wall_seconds / 60.0, 3)
      << " min of wall time (points finished earlier are not rerun).\n";
 
   // Verdicts: what analyze leaves out.

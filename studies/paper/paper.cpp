@@ -225,8 +225,9 @@ int run(const StudyOptions& options) {
   }
   if (options.dry_run) {
     std::printf(
-        "study paper --preset %s: %zu distinct runs, about %.3g CPU-hours (40 ns per particle "
-        "force evaluation; runs that studies share are counted once; a study in stages counts "
+        "study paper --preset %s: %zu distinct runs, about %.3g CPU-hours (each integrator's "
+        "measured CPU time per particle and tau_0; runs that studies share are counted once; a "
+        "study in stages counts "
         "every stage, those not yet written from stand-in start states); %zu finished, about %.3g "
         "CPU-hours left\n",
         options.preset.c_str(), tally.scenes.size(), tally.cpu_hours, tally.finished,

@@ -263,10 +263,15 @@ TEST_P(Contract, ForcePassesPerTimeMatchesEvaluations) {
   integ->advance(m, *ens, t_end);
   const double evaluations = double(m.force_evaluations());
   EXPECT_GE(integ->force_pass_equivalents(m), evaluations);
+  // The CPU time a dry-run expects: finite and positive for every integrator, and the nominal
+  // passes at the measured cost of one for fixed-step ones.
+  const double cpu = integ->cpu_seconds_per_particle_time(*ens, Integrator::CostPoint{});
+  EXPECT_TRUE(std::isfinite(cpu) && cpu > 0.0) << cpu;
   if (c.config.adaptive) {
     EXPECT_TRUE(std::isnan(per_time));
     return;
   }
+  EXPECT_DOUBLE_EQ(cpu, per_time * kCpuSecondsPerParticlePass);
   ASSERT_TRUE(std::isfinite(per_time) && per_time > 0.0) << per_time;
   EXPECT_NEAR(evaluations, per_time * t_end, 1.0) << "declared " << per_time << " per unit time";
   EXPECT_EQ(integ->force_pass_equivalents(m), evaluations);

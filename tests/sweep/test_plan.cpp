@@ -2,6 +2,7 @@
 // one-line errors for bad keys and values, found for every point before anything runs.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <set>
 #include <string>
 
@@ -75,6 +76,31 @@ TEST(SweepPlan, NamesDoNotDependOnOtherAxesValues) {
   const Plan b = parse("[sweep]\n[sweep.grid]\n\"shear.rate\" = [1e-4, 1e-2, 1e-3]\n");
   EXPECT_EQ(a.points[0].name, b.points[2].name);
   EXPECT_EQ(a.points[1].name, b.points[0].name);
+}
+
+// A point's expected cost is its integrator's measured CPU time per particle and unit time
+// (Integrator::cpu_seconds_per_particle_time) x N x (t_eq + t_av), in CPU seconds: half the
+// step costs twice as much; RKC costs more at a tighter tolerance and at a higher pressure.
+TEST(SweepPlan, CostIsTheIntegratorsCpuTimeOverTheRun) {
+  const Plan euler = parse(R"([sweep]
+[sweep.zip]
+"integrator.dt" = [0.2, 0.1]
+)");
+  ASSERT_EQ(euler.points.size(), 2u);
+  // N = 64, t = 30, 5 passes per unit time at kCpuSecondsPerParticlePass (17 ns).
+  EXPECT_NEAR(euler.points[0].cost, 64 * 30.0 * 5 * 17e-9, 1e-12);
+  EXPECT_NEAR(euler.points[1].cost / euler.points[0].cost, 2.0, 1e-12);
+  const Plan rkc = parse(R"([sweep]
+[sweep.zip]
+"integrator" = [{kind = "rkc", atol = 1e-4}, {kind = "rkc", atol = 1e-2},
+                {kind = "rkc", atol = 1e-4}]
+"ensemble.pressure" = [1e-2, 1e-2, 1e-4]
+)");
+  ASSERT_EQ(rkc.points.size(), 3u);
+  for (const auto& pt : rkc.points)
+    EXPECT_TRUE(pt.cost > 0.0 && std::isfinite(pt.cost)) << pt.name;
+  EXPECT_GT(rkc.points[0].cost, rkc.points[1].cost);  // tighter atol
+  EXPECT_GT(rkc.points[0].cost, rkc.points[2].cost);  // higher pressure
 }
 
 TEST(SweepPlan, TasksAreReplicasWithConsecutiveSeedsLongestFirst) {
