@@ -12,9 +12,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <thread>
 
 #include "driver/run_detail.hpp"
+#include "driver/simulation.hpp"
 #include "lib/cpu_clock.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
@@ -184,6 +186,19 @@ Length decide_length(const RunSpec& spec, const Series& series, const StepPairs*
   return len;
 }
 
+// An observer of the time loop made of functions (any left empty does nothing).
+struct HookObserver final : LoopObserver {
+  std::function<bool(long long)> on_proceed;
+  std::function<void(long long, double)> on_sample;
+  std::function<bool()> on_attend;
+  bool proceed(Simulation&, long long k) override { return on_proceed ? on_proceed(k) : true; }
+  void sampled(Simulation&, long long k, double t) override {
+    if (on_sample)
+      on_sample(k, t);
+  }
+  bool attend(Simulation&) override { return on_attend ? on_attend() : false; }
+};
+
 long long sample_index(double time, double sample_every) {
   return static_cast<long long>(std::floor(time / sample_every + 1e-9));
 }
@@ -195,20 +210,17 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   ReplicaResult res;
   res.seed = seed;
   const auto wall0 = std::chrono::steady_clock::now();
-  ModelOptions mo;
-  mo.alpha = spec.alpha;
-  mo.skin = spec.skin;
-  mo.threads = spec.threads;
-  Model model(from ? from->end.state : initial_state(spec, seed), mo);
+  Simulation sim(spec, seed, from ? from->end.state : initial_state(spec, seed),
+                 Simulation::model_options(spec));
+  Model& model = sim.model();
+  Integrator* const integ = &sim.integrator();
   res.kernel = model.force_field().kernel();
   res.kernel_target = model.force_field().target();
   res.threads = model.force_field().threads();
   const bool cpu_process = res.threads > 1;
   const double cpu0 = cpu_clock(cpu_process);
-  std::unique_ptr<Integrator> integ = spec.make_integrator();
   std::atomic<bool> attention{false};
-  integ->set_interrupt(&attention);
-  const Ensemble& ens = *spec.ensemble;
+  const Ensemble& ens = sim.ensemble();
   if (integ->has_solver_history())
     res.history = "kept";
 
@@ -235,6 +247,7 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
     res.t_start = model.state().time;
   }
   const double t_start = res.t_start;
+  sim.set_start_time(t_start);
   const bool automatic = spec.auto_eq || spec.auto_av;
   // The first horizon: t_eq + t_av; with t_eq = "auto", t_av (where the transient is first
   // looked for); a continued automatic run keeps the horizon it had.
@@ -332,7 +345,6 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   Watcher watcher(options, attention);
   // Looks up from the loop: writes a checkpoint if one is due; true if the run must stop.
   auto attend = [&]() -> bool {
-    attention.store(false);
     const int sig = options.control ? options.control->signal.load() : 0;
     const bool stop = sig != 0 || (options.stop && options.stop->load());
     const bool asked = options.control && options.control->checkpoint.exchange(false);
@@ -358,20 +370,27 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
         write_frame(0, 0.0);
       checkpoint();  // the .part file exists from the start
     }
-    bool stopped = false;
-    for (long long k = k_first; !stopped; ++k) {
-      if (k > k_max) {
-        if (!automatic)
-          break;
-        const Length len = decide_length(spec, res.series, step_test ? &res.steps : nullptr);
-        if (len.done)
-          break;
-        res.horizon = std::max(len.horizon, double(k) * spec.sample_every);
-        k_max = sample_index(res.horizon, spec.sample_every);
-        progress.set_total(res.horizon);
-      }
-      // The budget, checked before each sample (a count, so the same sample wherever it runs),
-      // in force-pass equivalents: what the integrator computed, not only the model's passes.
+    // The loop's observers, in the order they are called: the run-length policy and the
+    // budget before each sample; the sample itself (with the oscillation test's step pair), the
+    // trajectory frame and the progress line at it; checkpoints and signals when the loop looks
+    // up.
+    HookObserver length, budget, sampler, frames, report, control;
+    length.on_proceed = [&](long long k) {
+      if (k <= k_max)
+        return true;
+      if (!automatic)
+        return false;
+      const Length len = decide_length(spec, res.series, step_test ? &res.steps : nullptr);
+      if (len.done)
+        return false;
+      res.horizon = std::max(len.horizon, double(k) * spec.sample_every);
+      k_max = sample_index(res.horizon, spec.sample_every);
+      progress.set_total(res.horizon);
+      return true;
+    };
+    // The budget, checked before each sample (a count, so the same sample wherever it runs),
+    // in force-pass equivalents: what the integrator computed, not only the model's passes.
+    budget.on_proceed = [&](long long) {
       if (spec.max_force_evaluations > 0 &&
           integ->force_pass_equivalents(model) >= double(spec.max_force_evaluations)) {
         res.status = "budget: stopped at t = " + fmt(model.state().time - t_start) + " after " +
@@ -379,19 +398,11 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
                      std::to_string(model.force_evaluations()) +
                      " force evaluations; [run] max_force_evaluations = " +
                      std::to_string(spec.max_force_evaluations) + ")";
-        break;
+        return false;
       }
-      const double t_rel = double(k) * spec.sample_every;
-      const double t_end = t_start + t_rel;
-      integ->advance(model, ens, t_end);
-      while (model.state().time < t_end && !stopped) {
-        // Interrupted between steps: attend, then go on to the same sample.
-        stopped = attend();
-        if (!stopped)
-          integ->advance(model, ens, t_end);
-      }
-      if (stopped)
-        break;
+      return true;
+    };
+    sampler.on_sample = [&](long long, double t_rel) {
       if (step_test && t_rel > spec.t_eq + 1e-9 * spec.sample_every) {
         // The forces of the step before this sample, and of the sample itself.
         before = model.last_evaluation().forces.force;
@@ -400,16 +411,21 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
       } else {
         record(t_rel);
       }
+    };
+    frames.on_sample = [&](long long k, double t_rel) {
       if (traj_stride > 0 && k % traj_stride == 0)
         write_frame(k, t_rel);
+    };
+    report.on_sample = [&](long long, double t_rel) {
       const Sample& last = res.series.samples.back();
       char extra[160];
       std::snprintf(extra, sizeof extra, "phi %.5f  P %.3e  sigma_xy %.3e", last.phi, last.pressure,
                     last.sigma_xy);
       progress.update(t_rel, extra);
-      if (attention.load())
-        stopped = attend();
-    }
+    };
+    control.on_attend = attend;
+    sim.run(spec.sample_every, k_first, {&length, &budget, &sampler, &frames, &report, &control},
+            &attention);
     if (res.status == "complete")
       progress.finish();
   } catch (const IntegrationError& e) {
