@@ -2,22 +2,19 @@
 #include "driver/simulation.hpp"
 
 #include <cmath>
+#include <utility>
 
 #include "lib/error.hpp"
 
 namespace jamflow {
 
-namespace {
-
-ModelOptions model_options(const RunSpec& spec) {
+ModelOptions Simulation::model_options(const RunSpec& spec) {
   ModelOptions mo;
   mo.alpha = spec.alpha;
   mo.skin = spec.skin;
   mo.threads = spec.threads;
   return mo;
 }
-
-}  // namespace
 
 Simulation::Simulation(const RunSpec& spec, std::uint64_t seed)
     : spec_(spec),
@@ -26,6 +23,51 @@ Simulation::Simulation(const RunSpec& spec, std::uint64_t seed)
       integrator_(spec.make_integrator()),
       ensemble_(spec.ensemble) {
   t_start_ = model_.state().time;
+}
+
+Simulation::Simulation(const RunSpec& spec, std::uint64_t seed, State start,
+                       const ModelOptions& options)
+    : spec_(spec),
+      seed_(seed),
+      model_(std::move(start), options),
+      integrator_(spec.make_integrator()),
+      ensemble_(spec.ensemble) {
+  t_start_ = model_.state().time;
+}
+
+bool Simulation::run(double sample_every, long long k_first,
+                     const std::vector<LoopObserver*>& observers, std::atomic<bool>* attention) {
+  const auto attend = [&] {
+    if (attention)
+      attention->store(false);
+    bool stop = false;
+    for (LoopObserver* o : observers)
+      stop = o->attend(*this) || stop;
+    return stop;
+  };
+  integrator_->set_interrupt(attention);
+  struct Unset {
+    Integrator& integrator;
+    ~Unset() { integrator.set_interrupt(nullptr); }
+  } unset{*integrator_};
+  for (long long k = k_first;; ++k) {
+    for (LoopObserver* o : observers)
+      if (!o->proceed(*this, k))
+        return true;
+    const double t = double(k) * sample_every;
+    const double t_end = t_start_ + t;
+    integrator_->advance(model_, *ensemble_, t_end);
+    while (model_.state().time < t_end) {
+      // Interrupted between steps: attend, then go on to the same sample.
+      if (attend())
+        return false;
+      integrator_->advance(model_, *ensemble_, t_end);
+    }
+    for (LoopObserver* o : observers)
+      o->sampled(*this, k, t);
+    if (attention && attention->load() && attend())
+      return false;
+  }
 }
 
 bool Simulation::advance_to(double t_end, const std::atomic<bool>* stop) {

@@ -15,6 +15,12 @@ class ConstantPressure final : public Ensemble {
   std::string name() const override { return "constant_pressure"; }
   bool has_piston() const override { return true; }
   double volume_rate(double p_hat) const override { return (p_hat - pressure_) / xi_v_; }
+  // The law is affine, so its slope 1 / xi_V is that of any secant. It is taken over [0, 1]
+  // (equal to 1 / xi_V up to rounding), the form CVODE's Jacobian has always used, so that
+  // CVODE's runs keep their bits.
+  double volume_rate_slope(double /*p_hat*/) const override {
+    return volume_rate(1.0) - volume_rate(0.0);
+  }
   double piston_friction() const override { return xi_v_; }
   std::optional<double> imposed_pressure() const override { return pressure_; }
   void describe(H5Writer& out, const std::string& object) const override;

@@ -23,6 +23,11 @@ class Ensemble {
   virtual bool has_piston() const { return false; }
   // dV/dt for the given instantaneous pressure and volume (0 without a piston).
   virtual double volume_rate(double /*p_hat*/) const { return 0.0; }
+  // d(dV/dt)/dP_hat at p_hat (the piston's entry of an integrator's Jacobian). Default: a
+  // central difference of volume_rate() over 1e-4 of the pressure's scale (|p_hat|, else the
+  // imposed pressure, else 1), for any law; a piston whose law has a closed-form slope
+  // overrides it.
+  virtual double volume_rate_slope(double p_hat) const;
   // xi_V (only with a piston).
   virtual double piston_friction() const { return 0.0; }
   // Power dissipated by the piston, xi_V (dV/dt)^2 (SPEC §3 energy balance).

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 
+#include "integrators/integrator.hpp"
 #include "lib/potential.hpp"
 
 namespace jamflow {
@@ -26,13 +27,90 @@ double typical_overlap(double pressure, double alpha) {
   return std::clamp(delta, 1e-9, 1.0);
 }
 
+CellRates StateEquation::cell_rates(double p_hat) const {
+  CellRates r;
+  r.strain = ensemble_.shear_rate();
+  if (ensemble_.has_piston())
+    r.volume = ensemble_.volume_rate(p_hat);
+  return r;
+}
+
+CellRates StateEquation::cell_rates(Model& model) const {
+  return ensemble_.has_piston() ? cell_rates(model.evaluate().pressure) : cell_rates(0.0);
+}
+
+double StateEquation::volume_rate_slope(double p_hat) const {
+  return ensemble_.has_piston() ? ensemble_.volume_rate_slope(p_hat) : 0.0;
+}
+
+void StateEquation::advance_cell(Box& box, const CellRates& rates, double h) {
+  box.strain += rates.strain * h;
+  const double v0 = box.volume();
+  const double v = v0 + h * rates.volume;
+  if (v != v0)
+    box.set_volume(v);
+}
+
+void StateEquation::euler_step(Model& model, double h) const {
+  if (!ensemble_.has_piston()) {
+    Box next = model.state().box;
+    advance_cell(next, cell_rates(0.0), h);
+    model.evaluate_and_drift(Drift::of(next.h_inv(), h / kXiS), next);
+    return;
+  }
+  const Evaluation& ev = model.evaluate();
+  const CellRates rates = cell_rates(ev.pressure);
+  model.modify([&](State& s) {
+    advance_cell(s.box, rates, h);
+    // Forces of the old configuration, displacement mapped with the new cell: r advances by
+    // exactly h F / xi_s on top of the affine flow.
+    drift_particles(s, ev.forces.force, h, model.force_field().threads());
+  });
+}
+
+void StateEquation::particle_step(Model& model, StepScheme scheme, double h,
+                                  std::vector<double>& scratch) const {
+  const int threads = model.force_field().threads();
+  const Evaluation& ev0 = model.evaluate();
+  if (scheme == StepScheme::kEuler) {
+    model.modify([&](State& s) { drift_particles(s, ev0.forces.force, h, threads); });
+    return;
+  }
+  // Heun: predictor s* = s + h F0, corrector s + h/2 (F0 + F1) = s* + h/2 (F1 - F0). Applied as
+  // an increment so that a neighbour-list rebuild (which wraps s) between the two is harmless.
+  scratch = ev0.forces.force;
+  model.modify([&](State& s) { drift_particles(s, scratch, h, threads); });
+  const Evaluation& ev1 = model.evaluate();
+  const std::vector<double>& f1 = ev1.forces.force;
+  for (std::size_t k = 0; k < scratch.size(); ++k)
+    scratch[k] = f1[k] - scratch[k];
+  model.modify([&](State& s) { drift_particles(s, scratch, 0.5 * h, threads); });
+}
+
+void StateEquation::cell_step(Model& model, StepScheme scheme, double h) const {
+  const double v0 = model.state().box.volume();
+  const CellRates r0 = cell_rates(model);
+  model.modify([&](State& s) { advance_cell(s.box, r0, h); });
+  if (scheme == StepScheme::kEuler || !ensemble_.has_piston())
+    return;
+  const CellRates r1 = cell_rates(model);
+  // Corrector V0 + h/2 (f0 + f1); the strain rate is constant, so the predictor's strain is
+  // already the corrector's.
+  const double v1 = v0 + h * (0.5 * (r0.volume + r1.volume));
+  model.modify([&](State& s) {
+    if (v1 != s.box.volume())
+      s.box.set_volume(v1);
+  });
+}
+
 EquationOfMotion::EquationOfMotion(Model& model, const Ensemble& ensemble, bool symmetric_jacobian)
     : model_(model),
       ensemble_(ensemble),
       n_(model.state().size()),
       piston_(ensemble.has_piston()),
       symmetric_(symmetric_jacobian),
-      gdot_(ensemble.shear_rate()) {
+      rates_(ensemble),
+      gdot_(rates_.cell_rates(0.0).strain) {
   const State& st = model.state();
   box_ref_ = st.box;
   t_ref_ = st.time;
@@ -41,10 +119,6 @@ EquationOfMotion::EquationOfMotion(Model& model, const Ensemble& ensemble, bool 
   l_ref_ = std::cbrt(v_ref_);
   s_ref_ = st.pos;
   ds_.assign(3 * n_, 0.0);
-  if (piston_) {
-    // volume_rate is affine in P_hat for the piston; its slope is 1 / xi_V.
-    rate_slope_ = ensemble.volume_rate(1.0) - ensemble.volume_rate(0.0);
-  }
 }
 
 Box EquationOfMotion::box_at(double t, double v) const {
@@ -174,10 +248,11 @@ void EquationOfMotion::rhs(double t, const double* y, double* ydot) {
   const double scale = 1.0 / (std::cbrt(ev.volume) * kXiS);
   Eigen::Map<Eigen::VectorXd> du(ydot, 3 * n_);
   du = scale * Eigen::Map<const Eigen::VectorXd>(ev.forces.force.data(), 3 * n_);
+  const CellRates cell = rates_.cell_rates(ev.pressure);
   // The sheared frame of u: d/dt (h(t)/l) = gdot e_x e_y^T (h/l).
-  du.head(n_) += gdot_ * Eigen::Map<const Eigen::VectorXd>(y + n_, n_);
+  du.head(n_) += cell.strain * Eigen::Map<const Eigen::VectorXd>(y + n_, n_);
   if (piston_)
-    ydot[3 * n_] = ensemble_.volume_rate(ev.pressure) / v_ref_;
+    ydot[3 * n_] = cell.volume / v_ref_;
 }
 
 void EquationOfMotion::rhs_at_reference(double* ydot) {
@@ -186,7 +261,7 @@ void EquationOfMotion::rhs_at_reference(double* ydot) {
   Eigen::Map<Eigen::VectorXd>(ydot, 3 * n_) =
       scale * Eigen::Map<const Eigen::VectorXd>(ev.forces.force.data(), 3 * n_);
   if (piston_)
-    ydot[3 * n_] = ensemble_.volume_rate(ev.pressure) / v_ref_;
+    ydot[3 * n_] = rates_.cell_rates(ev.pressure).volume / v_ref_;
 }
 
 void EquationOfMotion::collect_contacts() {
@@ -208,8 +283,9 @@ void EquationOfMotion::collect_contacts() {
     // u fixed, w -> w + dw: every pair vector dilates by eps = dl/l = V_ref dw / (3 V).
     //   d(du/dt)/dw = -(V_ref / 3V) (g + F) / (l xi_s)       (forces and the 1/l prefactor)
     // w fixed, u -> u + du: dr_ij = l (du_i - du_j), d(r.f) = (f - U'' r).dr, dP = dW / 3V:
-    //   d(dw/dt)/du = rate_slope l (F - g) / (3 V V_ref)
+    //   d(dw/dt)/du = slope l (F - g) / (3 V V_ref),  slope = d(dV/dt)/dP_hat at this P_hat
     // Affine dilation of the virial: dW/dV = (W - Q)/(3V), so dP/dV = -(2W + Q) / (9 V^2).
+    const double slope = rates_.volume_rate_slope(ev.pressure);
     const double v = st.box.volume();
     const double l = std::cbrt(v);
     const double* f = ev.forces.force.data();
@@ -217,9 +293,9 @@ void EquationOfMotion::collect_contacts() {
     row_wu_.resize(3 * n);
     for (std::size_t k = 0; k < 3 * n; ++k) {
       col_uw_[k] = -(v_ref_ / (3.0 * v)) * (g[k] + f[k]) / (l * kXiS);
-      row_wu_[k] = rate_slope_ * l * (f[k] - g[k]) / (3.0 * v * v_ref_);
+      row_wu_[k] = slope * l * (f[k] - g[k]) / (3.0 * v * v_ref_);
     }
-    j_ww_ = -rate_slope_ * (2.0 * virial + curvature) / (9.0 * v * v);
+    j_ww_ = -slope * (2.0 * virial + curvature) / (9.0 * v * v);
   }
 }
 

@@ -1,6 +1,17 @@
-// The equation of motion, written once for the integrators that see the dynamics as one ODE
-// system (CVODE, RKC): particles, the sheared cell and, at constant pressure, the piston
-// (SPEC §2), with its analytic Jacobian-vector product.
+// The equation of motion (SPEC §2), written once: particles, the sheared cell and, at constant
+// pressure, the piston. Two forms of the same equation:
+//
+// StateEquation: in the Model's own coordinates (s, strain, V), for the integrators that step
+// the state directly. The particle field moves s with the cell fixed, the cell field moves the
+// cell with s fixed (particles follow affinely):
+//   ds/dt = h^-1 F / xi_s,      d(strain)/dt = gdot,   dV/dt = ensemble.volume_rate(P_hat).
+// Euler takes one step of their sum (euler_step); RESPA composes steps of each field
+// (particle_step, cell_step). These are the only places where Euler's and RESPA's rates are
+// written into a state.
+//
+// EquationOfMotion: the ODE system of the integrators that see the dynamics as one vector y
+// (CVODE, RKC), with its analytic Jacobian-vector product. Its piston rate and shear term are
+// StateEquation's cell rates.
 //
 // ODE state. y = [u (3N, SoA like State::pos), w (1, only with a piston)] with
 //   u = (h(t) / l) (s - s_ref),   w = V / V_ref - 1,   l = V^(1/3).
@@ -53,6 +64,49 @@ class CellCollapse : public IntegrationError {
   using IntegrationError::IntegrationError;
 };
 
+// The rates of the cell: d(strain)/dt and dV/dt (0 without a piston).
+struct CellRates {
+  double strain = 0.0;
+  double volume = 0.0;
+};
+
+// One-step schemes for a field: euler y <- y + h f(y); heun y* = y + h f(y),
+// y <- y + h/2 (f(y) + f(y*)).
+enum class StepScheme { kEuler, kHeun };
+
+// The equation of motion in the Model's own coordinates (see the top of this file). Holds only
+// a reference to the ensemble: cheap to make per advance().
+class StateEquation {
+ public:
+  explicit StateEquation(const Ensemble& ensemble) : ensemble_(ensemble) {}
+
+  // The cell's rates at instantaneous pressure p_hat.
+  CellRates cell_rates(double p_hat) const;
+  // The cell's rates at the Model's state: with a piston they need P_hat (a force pass unless
+  // cached); without one, nothing is evaluated.
+  CellRates cell_rates(Model& model) const;
+  // d(dV/dt)/dP_hat at p_hat: the piston's entry of the Jacobian (0 without a piston).
+  double volume_rate_slope(double p_hat) const;
+
+  // One explicit Euler step of the whole equation over h, with the forces and P_hat of the
+  // state at the step's start. Without a piston the cell does not depend on the forces, so the
+  // particle drift is asked of the force backend as part of its pass (Model::
+  // evaluate_and_drift: the same bits as evaluate(), the cell step, then the drift).
+  void euler_step(Model& model, double h) const;
+  // One step of the particle field over h with the cell fixed. `scratch` holds Heun's forces.
+  void particle_step(Model& model, StepScheme scheme, double h, std::vector<double>& scratch) const;
+  // One step of the cell field over h with s fixed. Without a piston the field is the affine
+  // shear alone, linear in time: exact with either scheme, and no force pass.
+  void cell_step(Model& model, StepScheme scheme, double h) const;
+
+  // The cell after h at `rates`: strain += h rates.strain, V += h rates.volume (IntegrationError
+  // on V <= 0 or non-finite).
+  static void advance_cell(Box& box, const CellRates& rates, double h);
+
+ private:
+  const Ensemble& ensemble_;
+};
+
 // The equation of motion over a Model, without any solver's types (the CVODE callbacks and
 // RKC's stages call it; tests call it directly). The reference is the Model's state at
 // construction. Methods that take y write it into the Model's State and evaluate forces;
@@ -96,8 +150,8 @@ class EquationOfMotion {
   std::size_t n_;
   bool piston_;
   bool symmetric_;
+  StateEquation rates_;
   double gdot_;
-  double rate_slope_ = 0.0;  // d volume_rate / d P_hat
   Box box_ref_;
   double t_ref_, strain_ref_, v_ref_, l_ref_;
   std::vector<double> s_ref_;  // scaled positions at the reference, with wraps folded in

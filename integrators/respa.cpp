@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "integrators/motion.hpp"
 #include "integrators/registry.hpp"
 #include "lib/error.hpp"
 
@@ -59,67 +60,39 @@ double Respa::force_passes_per_time(const Ensemble& ensemble) const {
   return (inner + outer) / options_.dt;
 }
 
-void Respa::particle_flow(Model& model, Scheme scheme, double h) {
-  const int threads = model.force_field().threads();
-  const Evaluation& ev0 = model.evaluate();
-  if (scheme == Scheme::kEuler) {
-    model.modify([&](State& s) { drift_particles(s, ev0.forces.force, h, threads); });
-    return;
-  }
-  // Heun: predictor s* = s + h F0, corrector s + h/2 (F0 + F1) = s* + h/2 (F1 - F0). Applied as
-  // an increment so that a neighbour-list rebuild (which wraps s) between the two is harmless.
-  force0_ = ev0.forces.force;
-  model.modify([&](State& s) { drift_particles(s, force0_, h, threads); });
-  const Evaluation& ev1 = model.evaluate();
-  const std::vector<double>& f1 = ev1.forces.force;
-  for (std::size_t k = 0; k < force0_.size(); ++k)
-    force0_[k] = f1[k] - force0_[k];
-  model.modify([&](State& s) { drift_particles(s, force0_, 0.5 * h, threads); });
-}
-
-void Respa::collective_flow(Model& model, const Ensemble& ensemble, Scheme scheme, double h) {
-  const double dstrain = ensemble.shear_rate() * h;
-  const double v0 = model.state().box.volume();
-  if (!ensemble.has_piston()) {
-    // Affine shear advection only: linear in time, exact with any scheme.
-    model.modify([&](State& s) { move_cell(s, dstrain, v0); });
-    return;
-  }
-  const double rate0 = ensemble.volume_rate(model.evaluate().pressure);
-  // move_cell throws IntegrationError on V <= 0 or non-finite.
-  model.modify([&](State& s) { move_cell(s, dstrain, v0 + h * rate0); });
-  if (scheme == Scheme::kEuler)
-    return;
-  const double rate1 = ensemble.volume_rate(model.evaluate().pressure);
-  model.modify([&](State& s) { move_cell(s, 0.0, v0 + 0.5 * h * (rate0 + rate1)); });
-}
-
-void Respa::step(Model& model, const Ensemble& ensemble, double h) {
+void Respa::step(Model& model, const StateEquation& motion, double h) {
   const int n = options_.n_inner;
   const double hi = h / double(n);
+  // The split: the particle field S and the cell field C of the one equation of motion
+  // (integrators/motion.hpp), each stepped with its level's scheme.
+  const auto particles = [&](Scheme scheme, double dt) {
+    motion.particle_step(model, scheme, dt, force0_);
+  };
+  const auto cell = [&](Scheme scheme, double dt) { motion.cell_step(model, scheme, dt); };
   if (options_.inner == RespaOptions::Level::kParticles) {
-    collective_flow(model, ensemble, options_.outer_scheme, 0.5 * h);
+    cell(options_.outer_scheme, 0.5 * h);
     for (int k = 0; k < n; ++k)
-      particle_flow(model, options_.inner_scheme, hi);
-    collective_flow(model, ensemble, options_.outer_scheme, 0.5 * h);
+      particles(options_.inner_scheme, hi);
+    cell(options_.outer_scheme, 0.5 * h);
   } else {
-    particle_flow(model, options_.outer_scheme, 0.5 * h);
+    particles(options_.outer_scheme, 0.5 * h);
     for (int k = 0; k < n; ++k)
-      collective_flow(model, ensemble, options_.inner_scheme, hi);
-    particle_flow(model, options_.outer_scheme, 0.5 * h);
+      cell(options_.inner_scheme, hi);
+    particles(options_.outer_scheme, 0.5 * h);
   }
   inner_steps_ += n;
 }
 
 void Respa::advance(Model& model, const Ensemble& ensemble, double t_end) {
   const double dt = options_.dt;
+  const StateEquation motion(ensemble);
   // As in Euler: the last step is shortened to land exactly on t_end, and a remainder below
   // 1e-9 dt is absorbed into the previous step.
   while (model.state().time < t_end && !interrupted()) {
     model.prepare_step();  // no history to drop: every step starts from the state alone
     const double t = model.state().time;
     const double h = (t_end - t <= dt * (1.0 + 1e-9)) ? t_end - t : dt;
-    step(model, ensemble, h);
+    step(model, motion, h);
     model.set_time(h == dt ? t + h : t_end);
     ++steps_;
   }

@@ -22,7 +22,8 @@
 // rate K / (V xi_V) is the stiff one. At constant volume C is only the affine shear advection
 // (exact, no force evaluation), so RESPA is Strang splitting of the shear from the contacts.
 //
-// Each sub-flow is approximated by one step of a one-step scheme chosen per level:
+// Each sub-flow is approximated by one step of a one-step scheme chosen per level (the fields
+// and schemes are StateEquation's, integrators/motion.hpp):
 //   euler:  y <- y + h f(y)                                    (order 1, 1 evaluation)
 //   heun:   y* = y + h f(y),  y <- y + h/2 (f(y) + f(y*))        (order 2, 2 evaluations)
 // A sub-flow that needs no evaluation (C at constant volume) is exact with either scheme.
@@ -61,12 +62,13 @@
 #include <vector>
 
 #include "integrators/integrator.hpp"
+#include "integrators/motion.hpp"
 
 namespace jamflow {
 
 struct RespaOptions {
   enum class Level { kParticles, kPiston };
-  enum class Scheme { kEuler, kHeun };
+  using Scheme = StepScheme;
   double dt = 0.0;
   int n_inner = 4;
   Level inner = Level::kParticles;
@@ -95,11 +97,7 @@ class Respa final : public Integrator {
 
  private:
   using Scheme = RespaOptions::Scheme;
-  void step(Model& model, const Ensemble& ensemble, double h);
-  // One step of the particle flow S over time h with the cell fixed.
-  void particle_flow(Model& model, Scheme scheme, double h);
-  // One step of the collective flow C over time h with the scaled coordinates fixed.
-  void collective_flow(Model& model, const Ensemble& ensemble, Scheme scheme, double h);
+  void step(Model& model, const StateEquation& motion, double h);
 
   RespaOptions options_;
   std::vector<double> force0_;  // Heun: forces at the start of a particle sub-step

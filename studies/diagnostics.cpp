@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <numbers>
 #include <sstream>
@@ -16,6 +17,7 @@
 #include <toml++/toml.h>
 
 #include "driver/checkpoint.hpp"
+#include "driver/simulation.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "studies/common.hpp"
@@ -212,15 +214,12 @@ double LaneAccumulator::velocity_amplitude(double gdot) const {
 WindowResult diagnostic_window(const RunSpec& spec, const State& start,
                                const WindowOptions& options) {
   WindowResult w;
-  ModelOptions mo;
-  mo.alpha = spec.alpha;
-  mo.skin = spec.skin;
+  ModelOptions mo = Simulation::model_options(spec);
   mo.threads = 1;
-  Model model(start, mo);
-  std::unique_ptr<Integrator> integ = spec.make_integrator();
-  const Ensemble& ens = *spec.ensemble;
-  w.adaptive = !(integ->nominal_dt() > 0.0);
-  w.step = !w.adaptive                   ? integ->nominal_dt()
+  Simulation sim(spec, spec.seed, start, mo);
+  const Integrator& integ = sim.integrator();
+  w.adaptive = !(integ.nominal_dt() > 0.0);
+  w.step = !w.adaptive                   ? integ.nominal_dt()
            : options.adaptive_step > 0.0 ? options.adaptive_step
                                          : spec.sample_every / 16.0;
   StepCorrelation corr(3);
@@ -229,28 +228,37 @@ WindowResult diagnostic_window(const RunSpec& spec, const State& start,
   const int snap_every = std::max(1, options.steps / std::max(1, options.lane_snapshots));
   const std::size_t n = start.size();
   std::vector<double> f(3 * n);
-  try {
-    for (int k = 0; k <= options.steps; ++k) {
-      const Evaluation& ev = model.evaluate();
-      const State& s = model.state();
-      for (std::size_t i = 0; i < n; ++i) {
-        const auto id = static_cast<std::size_t>(s.id[i]);
-        for (std::size_t c = 0; c < 3; ++c)
-          f[3 * id + c] = ev.forces.force[c * n + i];
-      }
-      corr.add(f);
-      w.sigma_xy.push_back(ev.sigma_xy);
-      w.pressure.push_back(ev.pressure);
-      w.dissipation.push_back(ev.dissipation);
-      if (k > 0 && k % snap_every == 0) {
-        lanes.add(s);
-        lanes.add_velocity(s, ev.forces.force);
-      }
-      if (k == options.steps)
-        break;
-      integ->advance(model, ens, s.time + w.step);
-      ++w.steps_done;
+  // The window is the time loop with one sample per step (the nominal dt, or `step` for an
+  // adaptive integrator): this observer records the forces and observables at each.
+  struct Recorder final : LoopObserver {
+    std::function<void(long long)> at;
+    int steps = 0;
+    bool proceed(Simulation&, long long k) override { return k <= steps; }
+    void sampled(Simulation&, long long k, double) override { at(k); }
+  } recorder;
+  recorder.steps = options.steps;
+  recorder.at = [&](long long k) {
+    Model& model = sim.model();
+    const Evaluation& ev = model.evaluate();
+    const State& s = model.state();
+    w.steps_done = static_cast<std::size_t>(k);
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto id = static_cast<std::size_t>(s.id[i]);
+      for (std::size_t c = 0; c < 3; ++c)
+        f[3 * id + c] = ev.forces.force[c * n + i];
     }
+    corr.add(f);
+    w.sigma_xy.push_back(ev.sigma_xy);
+    w.pressure.push_back(ev.pressure);
+    w.dissipation.push_back(ev.dissipation);
+    if (k > 0 && k % snap_every == 0) {
+      lanes.add(s);
+      lanes.add_velocity(s, ev.forces.force);
+    }
+  };
+  try {
+    recorder.at(0);
+    sim.run(w.step, 1, {&recorder});
   } catch (const IntegrationError& e) {
     w.status = std::string("failed at step ") + std::to_string(w.steps_done) + ": " + e.what();
   }

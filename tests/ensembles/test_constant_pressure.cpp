@@ -10,6 +10,7 @@
 
 #include "driver/run.hpp"
 #include "ensembles/constant_pressure.hpp"
+#include "ensembles/constant_volume.hpp"
 #include "integrators/integrator.hpp"
 #include "lib/error.hpp"
 #include "lib/forces.hpp"
@@ -70,6 +71,15 @@ TEST(ConstantPressure, PistonSignAndDissipation) {
   EXPECT_DOUBLE_EQ(np.piston_dissipation(3e-3), 1e-4 * 100.0);
   EXPECT_THROW(ConstantPressure(1e-3, 0.0, 1e-4), ConfigError);
   EXPECT_THROW(ConstantPressure(1e-3, 1e-3, -1.0), ConfigError);
+}
+
+TEST(ConstantPressure, VolumeRateSlopeIsOneOverXiV) {
+  // The law is affine: its slope is 1 / xi_V at every P_hat (to rounding), and a constant-volume
+  // ensemble has none.
+  const ConstantPressure np(1e-3, 2e-3, 1e-4);
+  for (double p_hat : {0.0, 1e-3, 2e-3, 5e-2})
+    EXPECT_NEAR(np.volume_rate_slope(p_hat), 1e4, 1e-12 * 1e4) << "P_hat " << p_hat;
+  EXPECT_EQ(ConstantVolume(1e-3).volume_rate_slope(1e-3), 0.0);
 }
 
 TEST(ConstantPressure, PistonSignIsStableForARealPacking) {

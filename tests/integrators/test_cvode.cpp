@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 #include <random>
 #include <thread>
 
@@ -193,6 +194,38 @@ TEST(Cvode, JacobianTimesMatchesFiniteDifferences) {
     ConstantPressure np(0.1, 0.05, 1e-3);
     check_jacobian(d.model, np, 1e-6);
   }
+}
+
+// A piston whose law is not linear in P_hat: xi_V dV/dt = d + d^3 / P^2 with d = P_hat - P. Its
+// slope comes from Ensemble's default (a central difference), as for any law without a closed
+// form.
+class CubicPiston final : public Ensemble {
+ public:
+  CubicPiston(double gdot, double pressure, double xi_v)
+      : Ensemble(gdot), pressure_(pressure), xi_v_(xi_v) {}
+  std::string name() const override { return "cubic_piston"; }
+  bool has_piston() const override { return true; }
+  double volume_rate(double p_hat) const override {
+    const double d = p_hat - pressure_;
+    return (d + d * d * d / (pressure_ * pressure_)) / xi_v_;
+  }
+  double piston_friction() const override { return xi_v_; }
+  std::optional<double> imposed_pressure() const override { return pressure_; }
+
+ private:
+  double pressure_, xi_v_;
+};
+
+// The piston's row and column of the Jacobian take the law's slope at the state's P_hat: a
+// slope taken anywhere else (a secant over [0, 1]) is off by orders of magnitude for this law.
+TEST(Cvode, JacobianTimesMatchesFiniteDifferencesForANonlinearPistonLaw) {
+  Dense d(0.72);
+  const double p_hat = d.model.evaluate().pressure;
+  CubicPiston law(0.1, 0.5 * p_hat, 1e-3);
+  // The slope at P_hat differs from the linear part's 1 / xi_V by the cubic term, 3 d^2 / P^2 = 3.
+  const double analytic = (1.0 + 3.0) / 1e-3;
+  EXPECT_NEAR(law.volume_rate_slope(p_hat), analytic, 1e-6 * analytic);
+  check_jacobian(d.model, law, 1e-6);
 }
 
 TEST(Cvode, JacobianParticleBlockIsTheHessianProduct) {

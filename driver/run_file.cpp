@@ -1,0 +1,220 @@
+// The run file: the HDF5 layout of a run (README "Output"), its final and .part files, and the
+// check of an output path before anything is computed.
+#include <unistd.h>
+
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+
+#include "driver/checkpoint.hpp"
+#include "driver/run.hpp"
+#include "lib/error.hpp"
+#include "lib/h5.hpp"
+#include "lib/version.hpp"
+
+#ifndef JAMFLOW_VERSION
+#define JAMFLOW_VERSION "unknown"
+#endif
+
+namespace jamflow {
+
+namespace {
+
+std::string iso_now() {
+  const std::time_t t = std::time(nullptr);
+  char buf[64];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+  return buf;
+}
+
+}  // namespace
+
+Configuration configuration_of(const State& st) {
+  Configuration c;
+  const std::size_t n = st.size();
+  c.positions.resize(3 * n);
+  c.diameters.resize(n);
+  c.species.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto id = static_cast<std::size_t>(st.id[i]);
+    Eigen::Vector3d s = st.scaled(i);
+    for (int k = 0; k < 3; ++k)
+      s[k] -= std::floor(s[k]);
+    const Eigen::Vector3d x = st.box.h() * s;
+    for (int k = 0; k < 3; ++k)
+      c.positions[3 * id + k] = x[k];
+    c.diameters[id] = st.diameter[i];
+    c.species[id] = st.species[i];
+  }
+  const Eigen::Matrix3d cell = st.box.h().transpose();
+  c.cell.resize(9);
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b)
+      c.cell[3 * a + b] = cell(a, b);
+  c.strain = st.box.strain;
+  c.time = st.time;
+  return c;
+}
+
+namespace {
+
+// `summary` replaces r's own summary values, counters and wall time (the replica mean at the
+// top level of a multi-replica file).
+void write_replica(H5Writer& w, const RunSpec& spec, const ReplicaResult& r,
+                   const std::string& prefix, const ReplicaResult* summary = nullptr) {
+  const auto& ss = r.series;
+  const std::string ts = prefix + "/timeseries";
+  w.dataset(ts + "/time", ss.column(&Sample::time));
+  w.dataset(ts + "/strain", ss.column(&Sample::strain));
+  w.dataset(ts + "/volume", ss.column(&Sample::volume));
+  w.dataset(ts + "/phi", ss.column(&Sample::phi));
+  w.dataset(ts + "/pressure", ss.column(&Sample::pressure));
+  w.dataset(ts + "/sigma_xy", ss.column(&Sample::sigma_xy));
+  w.dataset(ts + "/energy", ss.column(&Sample::energy));
+  w.dataset(ts + "/dissipation", ss.column(&Sample::dissipation));
+  if (spec.ensemble->has_piston()) {
+    w.dataset(ts + "/piston_dissipation", ss.column(&Sample::piston_dissipation));
+  }
+  const auto t_eq = r.summary.values.find("t_eq");
+  w.attr(ts, "t_eq", t_eq == r.summary.values.end() ? spec.t_eq : t_eq->second);
+  w.attr(ts, "seed", static_cast<std::int64_t>(r.seed));
+
+  // Final configuration, in particle id order; cell rows are the lattice vectors.
+  const Configuration c = configuration_of(r.final_state);
+  const std::size_t n = c.diameters.size();
+  const std::string fin = prefix + "/final";
+  w.dataset(fin + "/positions", c.positions, {n, 3});
+  w.dataset(fin + "/diameters", c.diameters);
+  w.dataset(fin + "/species", c.species);
+  w.dataset(fin + "/cell", c.cell, {3, 3});
+  w.attr(fin, "strain", c.strain);
+  w.attr(fin, "time", c.time);
+
+  const std::string sm = prefix + "/summary";
+  w.group(sm);
+  const ReplicaResult& src = summary ? *summary : r;
+  for (const auto& [k, v] : src.summary.values)
+    w.attr(sm, k, v);
+  for (const auto& [k, v] : src.summary.verdicts)
+    w.attr(sm, "verdict_" + k, v);
+  for (const auto& [k, v] : r.summary.texts)
+    w.attr(sm, k, v);
+  w.attr(sm, "N", static_cast<std::int64_t>(n));
+  w.attr(sm, "alpha", spec.alpha);
+  spec.ensemble->describe(w, sm);
+  w.attr(sm, "integrator", spec.integrator.kind);
+  for (const auto& [k, v] : src.integrator_stats)
+    w.attr(sm, "integrator_" + k, v);
+  w.attr(sm, "wall_seconds", src.wall_seconds);
+  w.attr(sm, "cpu_seconds", src.cpu_seconds);
+  if (src.cpu_from_wall)
+    w.attr(sm, "cpu_seconds_note",
+           "includes wall seconds: continued from a checkpoint that recorded no CPU time");
+  w.attr(sm, "status", src.status);
+}
+
+}  // namespace
+
+void write_run_layout(H5Writer& w, const RunSpec& spec,
+                      const std::vector<ReplicaResult>& replicas) {
+  w.attr("/", "scene", spec.scene_text);
+  w.attr("/", "version", JAMFLOW_VERSION);
+  w.attr("/", "git_commit", git_commit());
+  w.attr("/", "created", iso_now());
+  std::string status = "complete";
+  std::int64_t resumes = 0;
+  std::string history;
+  for (const auto& r : replicas) {
+    if (r.status != "complete" && status == "complete")
+      status = r.status;
+    resumes += r.resumes;
+    if (r.history != "none" && r.history != "kept")
+      history += (history.empty() ? "" : "; ") + r.history;
+  }
+  if (!replicas.empty()) {
+    w.attr("/", "kernel", replicas.front().kernel);
+    w.attr("/", "kernel_target", replicas.front().kernel_target);
+    w.attr("/", "threads", static_cast<std::int64_t>(replicas.front().threads));
+    // "none", "kept", or where an adaptive solver started afresh (a continued run).
+    w.attr("/", "solver_history", history.empty() ? replicas.front().history : history);
+  }
+  w.attr("/", "replicas", static_cast<std::int64_t>(replicas.size()));
+  w.attr("/", "resumes", resumes);
+  w.attr("/", "status", status);
+  if (replicas.empty())
+    return;
+  if (replicas.size() > 1 && status == "complete") {
+    // Top level: the first replica's series, final state, integrator counters and wall time
+    // (counters need not be additive, e.g. CVODE's atol), the summary of all replicas.
+    ReplicaResult all;
+    all.integrator_stats = replicas.front().integrator_stats;
+    all.wall_seconds = replicas.front().wall_seconds;
+    all.cpu_seconds = replicas.front().cpu_seconds;
+    all.status = replicas.front().status;
+    std::vector<Summary> sums;
+    double wall = 0.0, cpu = 0.0;
+    for (const auto& r : replicas) {
+      sums.push_back(r.summary);
+      wall += r.wall_seconds;
+      cpu += r.cpu_seconds;
+      all.cpu_from_wall = all.cpu_from_wall || r.cpu_from_wall;
+    }
+    all.summary = combine_replicas(sums);
+    all.summary.values["wall_seconds_total"] = wall;
+    all.summary.values["cpu_seconds_total"] = cpu;
+    write_replica(w, spec, replicas.front(), "", &all);
+  } else {
+    write_replica(w, spec, replicas.front(), "");
+  }
+  if (replicas.size() > 1) {
+    for (std::size_t k = 0; k < replicas.size(); ++k) {
+      write_replica(w, spec, replicas[k], "/replicas/" + std::to_string(k));
+    }
+  }
+  write_checkpoint(w, replicas);
+}
+
+bool write_run_file(const RunSpec& spec, const std::vector<ReplicaResult>& replicas,
+                    const std::string& path) {
+  bool complete = !replicas.empty();
+  for (const auto& r : replicas)
+    complete = complete && finished_status(r.status);
+  H5Writer w(complete ? path : path + ".part", ".tmp");
+  write_run_layout(w, spec, replicas);
+  w.commit();
+  return complete;
+}
+
+void check_output(const std::string& file, const OutputOptions& output) {
+  namespace fs = std::filesystem;
+  const auto bad = [&](const std::string& why) {
+    throw ConfigError("[output] file = \"" + file + "\" " + why);
+  };
+  const fs::path p(file);
+  if (file.empty() || !p.has_filename() || p.filename() == "." || p.filename() == "..")
+    bad("is not a file name; allowed a path to an .h5 file, such as \"run.h5\"");
+  std::error_code ec;
+  if (fs::is_directory(p, ec))
+    bad("is a directory; allowed a path to an .h5 file inside it");
+  const fs::path dir = p.has_parent_path() ? p.parent_path() : fs::path(".");
+  if (!fs::is_directory(dir, ec))
+    bad("is in a directory that does not exist ('" + dir.string() + "'); create it first");
+  // Writable, as the run will find it: a probe file is created and removed.
+  const fs::path probe = dir / (".jamflow-probe-" + std::to_string(::getpid()));
+  {
+    std::ofstream f(probe);
+    if (!f)
+      bad("is in a directory that is not writable ('" + dir.string() + "')");
+  }
+  fs::remove(probe, ec);
+  if (output.continue_from)
+    return;  // --resume and --extend replace their own files (checked by the caller)
+  if (!output.force && fs::exists(p, ec))
+    bad("exists; pass --force to overwrite it, or --extend it");
+  if (!output.force && fs::exists(file + ".part", ec))
+    bad("has a checkpoint beside it ('" + file + ".part'); continue it with --resume " + file +
+        ".part, or pass --force to start over");
+}
+
+}  // namespace jamflow

@@ -1,0 +1,370 @@
+// The summary of a run: block averages, errors, verdicts, the combination of replicas, and the
+// summary printed at the end of `jamflow run`.
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+#include "driver/run.hpp"
+#include "driver/run_detail.hpp"
+#include "driver/verdicts.hpp"
+#include "lib/error.hpp"
+#include "lib/statistics.hpp"
+
+namespace jamflow {
+
+using detail::short_num;
+
+std::vector<double> Series::column(double Sample::*field) const {
+  std::vector<double> v;
+  v.reserve(samples.size());
+  for (const auto& s : samples)
+    v.push_back(s.*field);
+  return v;
+}
+
+bool stopped_by_budget(const std::string& status) {
+  return status.rfind("budget", 0) == 0;
+}
+
+bool finished_status(const std::string& status) {
+  return status == "complete" || stopped_by_budget(status);
+}
+
+bool Summary::failed() const {
+  for (const auto& [name, text] : verdicts)
+    if (text.rfind("fail", 0) == 0)
+      return true;
+  return false;
+}
+
+Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* steps) {
+  Summary sum;
+  auto& out = sum.values;
+  std::vector<Sample> win;
+  const double t0 = spec.t_eq - 1e-9 * spec.sample_every;
+  for (const auto& s : series.samples) {
+    if (s.time >= t0)
+      win.push_back(s);
+  }
+  // The t = t_eq sample closes equilibration; averages use the samples after it.
+  if (!win.empty() && std::abs(win.front().time - spec.t_eq) < 1e-9 * spec.sample_every &&
+      spec.t_eq > 0.0) {
+    win.erase(win.begin());
+  }
+  const std::size_t nb = static_cast<std::size_t>(spec.blocks);
+  if (win.size() < nb) {
+    throw IntegrationError(
+        "only " + std::to_string(win.size()) +
+        " samples in the averaging window, fewer than blocks = " + std::to_string(nb));
+  }
+  Series w{win};
+  const auto sigma = w.column(&Sample::sigma_xy);
+  const auto press = w.column(&Sample::pressure);
+  const auto phi = w.column(&Sample::phi);
+  const auto energy = w.column(&Sample::energy);
+  const double gdot = spec.shear_rate;
+  std::vector<double> work(win.size()), loss(win.size());
+  for (std::size_t k = 0; k < win.size(); ++k) {
+    work[k] = win[k].sigma_xy * gdot * win[k].volume;
+    loss[k] = win[k].dissipation + win[k].piston_dissipation;
+  }
+  const BlockAverage bs = block_average(sigma, nb);
+  const BlockAverage bp = block_average(press, nb);
+  const BlockAverage bphi = block_average(phi, nb);
+  const BlockAverage be = block_average(energy, nb);
+  const BlockAverage bw = block_average(work, nb);
+  const BlockAverage bl = block_average(loss, nb);
+  out["sigma_xy"] = bs.mean;
+  out["sigma_xy_err"] = bs.error;
+  out["pressure"] = bp.mean;
+  out["pressure_err"] = bp.error;
+  out["phi"] = bphi.mean;
+  out["phi_err"] = bphi.error;
+  out["phi_block_std"] = bphi.block_std;
+  out["energy"] = be.mean;
+  out["energy_err"] = be.error;
+  out["dissipation"] = bl.mean;
+  out["energy_balance"] =
+      bl.mean > 0.0 ? bw.mean / bl.mean : std::numeric_limits<double>::quiet_NaN();
+  out["samples"] = double(win.size());
+  out["block_length"] = double(win.size() / nb) * spec.sample_every;
+
+  const std::optional<double> imposed = spec.ensemble->imposed_pressure();
+  // mu = sigma / P: with the imposed P at constant pressure, else the block ratio.
+  std::vector<double> mu_blocks(nb);
+  for (std::size_t b = 0; b < nb; ++b) {
+    mu_blocks[b] = bs.blocks[b] / (imposed ? *imposed : bp.blocks[b]);
+  }
+  const BlockAverage bmu = block_average(mu_blocks, nb);
+  out["mu"] = imposed ? bs.mean / *imposed : bs.mean / bp.mean;
+  out["mu_err"] = bmu.error;
+  const double p_ref = imposed ? *imposed : bp.mean;
+  if (gdot > 0.0) {
+    out["eta"] = bs.mean / gdot;
+    out["eta_err"] = bs.error / gdot;
+    out["eta_block_std"] = bs.block_std / gdot;
+    out["J"] = gdot / p_ref;  // J = gdot eta_0 / P with eta_0 = xi_s / a = 1
+  }
+  // Integrated autocorrelation times (in time units) of the main observables. Block errors
+  // are only trustworthy when a block spans at least about 2 of them. A constant series (phi
+  // at constant volume) has tau = half a sample and never warns.
+  const std::pair<const char*, const std::vector<double>*> correlated[] = {
+      {"sigma_xy", &sigma}, {"pressure", &press}, {"phi", &phi}};
+  const VerdictThresholds limits;
+  std::string too_short;
+  for (const auto& [name, series_ptr] : correlated) {
+    const double tau = integrated_autocorrelation(*series_ptr) * spec.sample_every;
+    out[std::string("tau_") + name] = tau;
+    if (!std::isfinite(tau) && too_short.empty()) {
+      too_short = std::string("tau_") + name + " = " + short_num(tau) + " not finite";
+    } else if (!(out["block_length"] >= limits.decorrelation_blocks * tau) && too_short.empty()) {
+      // How much too small the block errors are, for correlations that decay exponentially
+      // (more if slower).
+      const double low = 1.0 - block_error_ratio(out["block_length"], tau);
+      char text[240];
+      std::snprintf(text, sizeof text,
+                    "blocks of %.4g are shorter than %g tau_%s = %.4g, so block errors are "
+                    "about %.0f%% too small (more if correlations decay slower than "
+                    "exponentially)",
+                    out["block_length"], limits.decorrelation_blocks, name,
+                    limits.decorrelation_blocks * tau, 100.0 * low);
+      too_short = text;
+    }
+  }
+  auto verdict = [&](const std::string& name, bool pass, const std::string& why) {
+    sum.verdicts[name] = pass ? "pass" : "fail: " + why;
+    out[name] = pass ? 1.0 : 0.0;
+  };
+  // A value that is not a number (0 / 0 with no contacts, say) fails the verdict that rests on
+  // it: NaN would pass every test written as !(x > limit).
+  const auto not_finite = [&](std::initializer_list<const char*> keys) {
+    std::string bad;
+    for (const char* key : keys) {
+      const auto it = out.find(key);
+      if (it != out.end() && !std::isfinite(it->second))
+        bad += (bad.empty() ? "" : ", ") + std::string(key) + " = " + short_num(it->second);
+    }
+    return bad.empty() ? bad : bad + " not finite";
+  };
+  // decorrelated: every block at least 2 tau long.
+  const bool undefined_tau = too_short.find(" not finite") != std::string::npos;
+  verdict("decorrelated", too_short.empty(), too_short + (undefined_tau ? "" : "; lengthen t_av"));
+
+  // steady: no significant trend of the block means.
+  std::string drift;
+  double worst = 0.0;
+  for (const auto& [name, b] : {std::pair<const char*, const BlockAverage*>{"phi", &bphi},
+                                {"sigma_xy", &bs},
+                                {"pressure", &bp}}) {
+    const double t = trend_t(b->blocks);
+    out[std::string("trend_t_") + name] = t;
+    if (std::abs(t) > worst || !std::isfinite(t)) {
+      worst = std::isfinite(t) ? std::abs(t) : std::numeric_limits<double>::infinity();
+      if (!(std::abs(t) <= limits.trend_t_max)) {
+        char text[200];
+        std::snprintf(text, sizeof text,
+                      "%s drifts from %.6g (first block) to %.6g (last), trend t = %.3g over "
+                      "%zu blocks (allowed |t| <= %g)",
+                      name, b->blocks.front(), b->blocks.back(), t, nb, limits.trend_t_max);
+        drift = text;
+      }
+    }
+  }
+  if (const std::string bad = not_finite({"sigma_xy", "sigma_xy_err", "pressure", "pressure_err",
+                                          "phi", "phi_err", "eta", "eta_err", "mu", "mu_err", "J"});
+      drift.empty() && !bad.empty())
+    verdict("steady", false, bad);
+  else
+    verdict("steady", drift.empty(), drift + "; lengthen t_eq");
+
+  // stable: energy balance and no step-to-step oscillation of the forces.
+  const EnergyBalance eb = energy_balance(series.samples, spec.t_eq, gdot, imposed, nb);
+  out["energy_balance_corrected"] = eb.ratio;
+  out["energy_balance_err"] = eb.error;
+  std::string unstable, unchecked;
+  if (gdot > 0.0 && !std::isfinite(out["energy_balance"])) {
+    char text[200];
+    std::snprintf(text, sizeof text,
+                  "energy balance = %s not finite (work %.4g / dissipation %.4g)",
+                  short_num(out["energy_balance"]).c_str(), bw.mean, bl.mean);
+    unstable = text;
+  } else if (eb.valid) {
+    const double allowed = std::max(limits.balance_tolerance, limits.balance_sigmas * eb.error);
+    if (eb.residual > allowed) {
+      char text[200];
+      std::snprintf(text, sizeof text,
+                    "energy balance %.4g +- %.2g (work / dissipation, enthalpy drift removed); "
+                    "allowed within %.3g of 1",
+                    eb.ratio, eb.error, allowed);
+      unstable = text;
+    }
+  } else {
+    unchecked = gdot > 0.0 ? "energy balance not available" : "no shear: no energy balance";
+  }
+  if (steps && steps->pairs > 0) {
+    out["force_step_correlation"] = steps->correlation();
+    if (!(steps->correlation() >= limits.force_correlation_min) && unstable.empty()) {
+      char text[200];
+      std::snprintf(text, sizeof text,
+                    "forces at consecutive steps correlate %.3g (period-2 share of the force "
+                    "power %.1f%%); allowed >= %g: lower dt",
+                    steps->correlation(), 50.0 * (1.0 - steps->correlation()),
+                    limits.force_correlation_min);
+      unstable = text;
+    }
+  } else if (!unchecked.empty()) {
+    unchecked += "; adaptive integrator: no step-to-step test";
+  }
+  if (!unstable.empty()) {
+    verdict("stable", false, unstable);
+  } else if (!unchecked.empty() && !(steps && steps->pairs > 0)) {
+    sum.verdicts["stable"] = "not checked: " + unchecked;
+    out["stable"] = std::numeric_limits<double>::quiet_NaN();
+  } else {
+    verdict("stable", true, "");
+  }
+  for (const auto& [name, text] : sum.verdicts) {
+    if (text.rfind("fail", 0) == 0)
+      sum.warnings.push_back("not " + name + ": " + text.substr(6));
+  }
+  return sum;
+}
+
+Summary combine_replicas(const std::vector<Summary>& summaries) {
+  if (summaries.empty())
+    throw std::invalid_argument("combine_replicas: no replicas");
+  const auto k = summaries.size();
+  auto ends_with = [](const std::string& s, const std::string& tail) {
+    return s.size() > tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
+  };
+  Summary out;
+  for (const auto& [name, first] : summaries.front().values) {
+    (void)first;
+    if (ends_with(name, "_err"))
+      continue;  // handled with its observable
+    std::vector<double> means, errors;
+    bool everywhere = true;
+    for (const auto& s : summaries) {
+      const auto it = s.values.find(name);
+      if (it == s.values.end()) {
+        everywhere = false;
+        break;
+      }
+      means.push_back(it->second);
+      const auto e = s.values.find(name + "_err");
+      errors.push_back(e == s.values.end() ? 0.0 : e->second);
+    }
+    if (!everywhere)
+      continue;
+    const ReplicaAverage ra = replica_average(means, errors);
+    out.values[name] = ra.mean;
+    if (summaries.front().values.count(name + "_err")) {
+      out.values[name + "_err"] = ra.block_error;
+      out.values[name + "_replica_err"] = ra.replica_error;
+    }
+  }
+  out.values["replicas"] = double(k);
+  // A verdict of the replicas passes only if it passes for each of them.
+  for (const auto& [name, text] : summaries.front().verdicts) {
+    (void)text;
+    std::string combined = "pass";
+    double value = 1.0;
+    for (std::size_t r = 0; r < k; ++r) {
+      const auto it = summaries[r].verdicts.find(name);
+      const std::string v = it == summaries[r].verdicts.end() ? "not checked" : it->second;
+      if (v.rfind("fail", 0) == 0) {
+        combined = "fail: replica " + std::to_string(r) + ": " + v.substr(6);
+        value = 0.0;
+        break;
+      }
+      if (v != "pass" && combined == "pass") {
+        combined = v;
+        value = std::numeric_limits<double>::quiet_NaN();
+      }
+    }
+    out.verdicts[name] = combined;
+    out.values[name] = value;
+  }
+  for (std::size_t r = 0; r < k; ++r) {
+    for (const auto& w : summaries[r].warnings)
+      out.warnings.push_back("replica " + std::to_string(r) + ": " + w);
+  }
+  return out;
+}
+
+Summary combined_summary(const std::vector<ReplicaResult>& replicas) {
+  if (replicas.size() == 1)
+    return replicas.front().summary;
+  std::vector<Summary> sums;
+  for (const auto& r : replicas)
+    sums.push_back(r.summary);
+  return combine_replicas(sums);
+}
+
+namespace detail {
+
+// Prints the summary; returns whether a verdict failed.
+bool print_summary(const RunSpec& spec, const std::vector<ReplicaResult>& results) {
+  std::vector<Summary> sums;
+  double wall = 0.0, cpu = 0.0, equivalents = 0.0;
+  bool cpu_from_wall = false;
+  for (const auto& r : results) {
+    sums.push_back(r.summary);
+    wall += r.wall_seconds;
+    cpu += r.cpu_seconds;
+    cpu_from_wall = cpu_from_wall || r.cpu_from_wall;
+    equivalents += statistic(r.integrator_stats, "force_pass_equivalents");
+  }
+  const std::size_t count = results.size();
+  const Summary combined = count > 1 ? combine_replicas(sums) : results.front().summary;
+  for (const auto& wmsg : combined.warnings)
+    std::fprintf(stderr, "warning: %s\n", wmsg.c_str());
+  const auto& v = combined.values;
+  auto get = [&](const std::string& k) { return v.count(k) ? v.at(k) : std::nan(""); };
+  std::printf("jamflow run: N = %lld, %s, %s, gdot = %g -> %s\n", (long long)spec.n,
+              spec.ensemble->name().c_str(), spec.integrator.kind.c_str(), spec.shear_rate,
+              spec.file.c_str());
+  std::printf("  kernel         = %s on %s, %d thread%s\n", results.front().kernel.c_str(),
+              results.front().kernel_target.c_str(), results.front().threads,
+              results.front().threads == 1 ? "" : "s");
+  if (count > 1) {
+    std::printf("  mean over %zu replicas +- block error +- replica-scatter error\n", count);
+  }
+  // With replicas: "value +- block error +- replica error"; alone: "value +- block error".
+  auto line = [&](const char* label, const std::string& k, const char* value_format) {
+    std::printf("  %-14s = ", label);
+    std::printf(value_format, get(k));
+    std::printf(" +- %.2e", get(k + "_err"));
+    if (count > 1)
+      std::printf(" +- %.2e", get(k + "_replica_err"));
+    std::printf("\n");
+  };
+  line("phi", "phi", "%.6f");
+  line("pressure", "pressure", "%.6e");
+  line("sigma_xy", "sigma_xy", "%.6e");
+  line("eta", "eta", "%.6e");
+  line("mu", "mu", "%.6f");
+  std::printf("  J              = %.6e\n", get("J"));
+  std::printf("  energy_balance = %.4f\n", get("energy_balance"));
+  std::printf("  tau_sigma_xy   = %.4g\n", get("tau_sigma_xy"));
+  for (const auto& [name, text] : combined.verdicts)
+    std::printf("  %-14s = %s\n", name.c_str(), text.c_str());
+  if (spec.auto_eq || spec.auto_av) {
+    for (std::size_t r = 0; r < results.size(); ++r) {
+      const auto& t = results[r].summary;
+      std::printf("  %-14s = %s%.6g after t_eq = %.6g (%s)\n", "t_av",
+                  count > 1 ? ("replica " + std::to_string(r) + ": ").c_str() : "",
+                  t.values.at("t_av"), t.values.at("t_eq"), t.texts.at("run_length").c_str());
+    }
+  }
+  std::printf("  force passes   = %.6g force-pass equivalents%s\n", equivalents,
+              count > 1 ? " (all replicas)" : "");
+  std::printf("  cpu time       = %.2f s%s\n", cpu,
+              cpu_from_wall ? " (partly wall time: continued from an older checkpoint)" : "");
+  std::printf("  wall time      = %.2f s\n", wall);
+  return combined.failed();
+}
+
+}  // namespace detail
+
+}  // namespace jamflow
