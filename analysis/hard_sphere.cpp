@@ -605,7 +605,12 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
     if (const Extrapolation* e = find(name))
       return e;
     for (const auto& ex : r.extrapolations) {
-      if (ex.parameter == name && ex.status == Extrapolation::Status::kConstant)
+      // An exponent needs its N -> infinity value, not a resolved approach: a power law with an
+      // amplitude consistent with 0, a size-independent b (constant) or one whose approach
+      // exponent is only bounded below (alpha_unbounded) all have a determined O_inf.
+      if (ex.parameter == name && (ex.status == Extrapolation::Status::kFit ||
+                                   ex.status == Extrapolation::Status::kConstant ||
+                                   ex.status == Extrapolation::Status::kExponentUnbounded))
         return &ex;
     }
     return nullptr;
