@@ -25,11 +25,14 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 double ParameterErrors::systematic() const {
   double s2 = 0.0;
+  bool any = false;
   for (double s : {window, form}) {
-    if (std::isfinite(s))
+    if (std::isfinite(s)) {
       s2 += s * s;
+      any = true;
+    }
   }
-  return std::sqrt(s2);
+  return any ? std::sqrt(s2) : kNaN;
 }
 
 const ParameterErrors& ErrorModel::operator[](const std::string& name) const {
@@ -130,6 +133,30 @@ FitResult fit_power_law_fixed_exponent(const FitData& data, const PowerLawForm& 
   if (std::isfinite(det) && std::fabs(det) > 0.0) {
     a0 = (s22 * t1 - s12 * t2) / det;
     c0 = (s11 * t2 - s12 * t1) / det;
+  }
+  if (data.covariance.empty()) {
+    // Uncorrelated data: the weighted linear least-squares solution is the fit (an iterative
+    // solver started there has nothing to improve and may report no progress as failure).
+    if (n < 3)
+      throw InsufficientDataError(
+          options.label + ": needs at least 3 points for 2 parameters, got " + std::to_string(n));
+    if (!(std::isfinite(det) && det > 1e-300 * std::max(1.0, s11 * s22)))
+      throw FitError(options.label + ": the amplitude is not determined (singular normal matrix)");
+    FitResult r;
+    r.names = {form.a_name, form.c_name};
+    r.params = {a0, c0};
+    for (std::size_t i = 0; i < n; ++i) {
+      const double g = form.sign * std::pow(data.x[i], form.exponent_sign * b);
+      r.chi2 += std::pow((data.y[i] - a0 - c0 * g) / data.sigma[i], 2);
+    }
+    r.dof = static_cast<int>(n) - 2;
+    double scale = 1.0;
+    if (options.scale_errors_by_chi2 && r.dof > 0 && r.chi2 / r.dof > 1.0) {
+      scale = r.chi2 / r.dof;
+      r.errors_scaled = true;
+    }
+    r.covariance = {scale * s22 / det, -scale * s12 / det, -scale * s12 / det, scale * s11 / det};
+    return r;
   }
   ModelFunction model = [form, b](double x, std::span<const double> p, std::span<double> grad) {
     const double xp = std::pow(x, form.exponent_sign * b);

@@ -30,7 +30,7 @@ struct ParameterErrors {
   // NaN when not computable (a refit without enough points, or no reference exponent).
   double window = 0.0;
   double form = 0.0;
-  double systematic() const;  // quadrature sum of the computable systematics
+  double systematic() const;  // quadrature sum of the computable ones; NaN if none is
 };
 
 struct ErrorModel {

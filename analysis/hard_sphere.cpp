@@ -580,7 +580,17 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
                                      : ": not resolved (needs |A| > " +
                                            fmt(options.resolved_amplitude_sigma) + " sigma)");
       } else {
-        ex.resolution = "not resolved: no power-law approach fitted (" + ex.message + ")";
+        // Why, without a value: an O_inf from a non-resolved extrapolation is no N -> infinity
+        // result (the JSON keeps it under `inf` with its status).
+        const char* why = ex.status == Extrapolation::Status::kConstant
+                              ? "a constant fits the sizes (no N-dependence resolved)"
+                          : ex.status == Extrapolation::Status::kExponentUnbounded
+                              ? "only the smallest size deviates (alpha_O bounded below only)"
+                          : ex.status == Extrapolation::Status::kNotResolved
+                              ? "no convergence with N"
+                              : "the fit failed";
+        ex.resolution =
+            std::string("not resolved: ") + why + ", over " + std::to_string(n_sizes) + " sizes";
       }
       if (ex.status == Extrapolation::Status::kFailed)
         r.failures.push_back(ex.message);

@@ -65,7 +65,7 @@ Json error_model_json(const ErrorModel& m) {
     jp["statistical"] = p.statistical;
     jp["window"] = number_or_null(p.window);
     jp["form"] = number_or_null(p.form);
-    jp["systematic"] = p.systematic();
+    jp["systematic"] = number_or_null(p.systematic());
     params[p.name] = jp;
   }
   j["parameters"] = params;
@@ -245,7 +245,7 @@ Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
           name == "phi_J" || name == "b_phi" || name == "C_phi" ? s.phi_errors : s.mu_errors;
       for (const auto& p : em.parameters) {
         if (p.name == name)
-          m["systematic"] = p.systematic();
+          m["systematic"] = number_or_null(p.systematic());
       }
       js[name] = m;
     }
@@ -394,8 +394,9 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
     for (const auto& name : hard_sphere_parameters()) {
       const ErrorModel& em =
           name == "phi_J" || name == "b_phi" || name == "C_phi" ? s.phi_errors : s.mu_errors;
+      const double sys = em[name].systematic();
       md << " | " << format_measured(size_param(s, name)) << " ± "
-         << fmt(em[name].systematic(), "%.2g") << " (sys)";
+         << (std::isfinite(sys) ? fmt(sys, "%.2g") : std::string("n/a")) << " (sys)";
     }
     md << " | " << fmt(s.phi.reduced_chi2(), "%.2f") << (s.phi.errors_scaled ? " (scaled)" : "")
        << " | " << fmt(s.mu.reduced_chi2(), "%.2f") << (s.mu.errors_scaled ? " (scaled)" : "")
