@@ -125,7 +125,7 @@ int analyze_main(const std::vector<std::string>& args) {
 
   std::vector<std::string> files;
   std::string output;
-  bool no_plots = false, scale_errors = false;
+  bool no_plots = false, unscaled_errors = false;
   double envelope_z = EnvelopeOptions{}.z;
   std::string window, hs_params, at_text, start_text;
   int bootstrap = OlssonTeitelOptions{}.bootstrap;
@@ -141,8 +141,9 @@ int analyze_main(const std::vector<std::string>& args) {
                     "PNGs are written next to it")
         ->required();
     sub->add_flag("--no-plots", no_plots, "do not run the matplotlib scripts");
-    sub->add_flag("--scale-errors", scale_errors,
-                  "multiply fit covariances by chi2/dof (for data errors known to be off)");
+    sub->add_flag("--unscaled-errors", unscaled_errors,
+                  "do not multiply fit covariances by chi2/dof where it exceeds 1 (the default "
+                  "scales them, and the output says so)");
   };
   CLI::App* hs =
       app.add_subcommand("hard-sphere",
@@ -225,7 +226,7 @@ int analyze_main(const std::vector<std::string>& args) {
     if (hs->parsed()) {
       HardSphereOptions o;
       o.envelope.z = envelope_z;
-      o.scale_errors = scale_errors;
+      o.scale_errors = !unscaled_errors;
       if (!window.empty()) {
         auto w = parse_numbers(window, 2, "--window", "phimin:phimax");
         o.window_min = w[0];
@@ -245,8 +246,8 @@ int analyze_main(const std::vector<std::string>& args) {
     if (soft->parsed()) {
       SoftOptions o;
       o.hard_sphere.envelope.z = envelope_z;
-      o.hard_sphere.scale_errors = scale_errors;
-      o.scale_errors = scale_errors;
+      o.hard_sphere.scale_errors = !unscaled_errors;
+      o.scale_errors = !unscaled_errors;
       if (!hs_params.empty()) {
         auto v = parse_numbers(hs_params, 4, "--hs-params", "b_phi:C_phi:b_mu:C_mu");
         HardSphereShape s;

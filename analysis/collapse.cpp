@@ -82,4 +82,51 @@ CollapseQuality houdayer_hartmann(const std::vector<CollapsePoint>& points) {
   return q;
 }
 
+CollapseQuality pairwise_interpolation(const std::vector<CollapsePoint>& points) {
+  std::size_t ncurves = 0;
+  for (const auto& p : points)
+    ncurves = std::max(ncurves, p.curve + 1);
+  std::vector<std::array<std::vector<const CollapsePoint*>, 2>> curves(ncurves);
+  for (const auto& p : points)
+    curves[p.curve][p.branch != 0 ? 1 : 0].push_back(&p);
+  for (auto& c : curves) {
+    for (auto& b : c) {
+      std::sort(b.begin(), b.end(),
+                [](const CollapsePoint* a, const CollapsePoint* c2) { return a->x < c2->x; });
+    }
+  }
+  CollapseQuality q;
+  q.total = points.size();
+  double sum = 0.0;
+  for (const auto& p : points) {
+    const int branch = p.branch != 0 ? 1 : 0;
+    double point_sum = 0.0;
+    int count = 0;
+    for (std::size_t k = 0; k < ncurves; ++k) {
+      if (k == p.curve)
+        continue;
+      const auto& c = curves[k][branch];
+      if (c.size() < 2 || p.x < c.front()->x || p.x > c.back()->x)
+        continue;
+      auto hi = std::upper_bound(c.begin(), c.end(), p.x,
+                                 [](double v, const CollapsePoint* a) { return v < a->x; });
+      if (hi == c.end())
+        --hi;
+      const CollapsePoint* b = *hi;
+      const CollapsePoint* a = *(hi - 1);
+      const double t = b->x > a->x ? (p.x - a->x) / (b->x - a->x) : 0.5;
+      const double y = (1.0 - t) * a->y + t * b->y;
+      const double var = (1.0 - t) * (1.0 - t) * a->dy * a->dy + t * t * b->dy * b->dy;
+      point_sum += std::pow(p.y - y, 2) / (p.dy * p.dy + var);
+      ++count;
+    }
+    if (count == 0)
+      continue;
+    sum += point_sum / count;
+    ++q.used;
+  }
+  q.s = q.used > 0 ? sum / static_cast<double>(q.used) : std::numeric_limits<double>::infinity();
+  return q;
+}
+
 }  // namespace jamflow::analysis

@@ -39,4 +39,13 @@ struct CollapsePoint {
 // S over the points (total = points.size()).
 CollapseQuality houdayer_hartmann(const std::vector<CollapsePoint>& points);
 
+// An independent measure of the same kind, for checking that a verdict does not hinge on the
+// estimator: each point is compared with every other curve of its branch separately, by linear
+// interpolation between that curve's two points bracketing its x (error (1-t)^2 dy_a^2 +
+// t^2 dy_b^2), and S is the mean over points of the mean over those curves of
+// (y - Y_k)^2 / (dy^2 + dY_k^2). Houdayer–Hartmann instead fits one line through all
+// neighbours, whose error shrinks with the number of curves. Same S ~ 1 meaning, same
+// acceptability bound.
+CollapseQuality pairwise_interpolation(const std::vector<CollapsePoint>& points);
+
 }  // namespace jamflow::analysis

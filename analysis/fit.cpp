@@ -289,7 +289,9 @@ FitResult fit_least_squares(const FitData& data, const ModelFunction& model,
   // as zero variance; we turn that into an error below, never a 0 error bar.
   gsl_multifit_nlinear_covar(jac, 1e-13, covar.get());
   double scale = 1.0;
-  if (options.scale_errors_by_chi2 && result.dof > 0) {
+  // Only upwards: chi2/dof < 1 is as likely from overestimated data errors as from luck, and
+  // shrinking the errors on it would claim a precision the data do not show.
+  if (options.scale_errors_by_chi2 && result.dof > 0 && chi2 / result.dof > 1.0) {
     scale = chi2 / result.dof;
     result.errors_scaled = true;
   }

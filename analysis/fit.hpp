@@ -6,8 +6,9 @@
 //   phi_J(P) = phi_J(0) + c_phi P^x, mu_J(P) = mu_J(0) - c_mu P^y  (phi_P, mu_P)
 //
 // Errors: the covariance is (J^T W J)^-1 with W the inverse data covariance,
-// i.e. it assumes the data errors are right. Scaling by chi2/dof is opt-in
-// (FitOptions::scale_errors_by_chi2) and recorded in the result.
+// multiplied by chi2/dof when that exceeds 1 (the data scatter more than their
+// errors say; FitOptions::scale_errors_by_chi2, on by default), and the result
+// records whether it was. Systematic errors: error_model.hpp.
 #pragma once
 
 #include <functional>
@@ -41,7 +42,8 @@ struct FitData {
 
 struct FitOptions {
   int max_iterations = 500;
-  bool scale_errors_by_chi2 = false;
+  // Multiply the covariance by chi2/dof when chi2/dof > 1 (never shrink it).
+  bool scale_errors_by_chi2 = true;
   // Names the fit in error messages, e.g. "phi = phi_J - C_phi J^b_phi (N=1000)".
   std::string label = "fit";
 };
@@ -53,7 +55,7 @@ struct FitResult {
   double chi2 = 0.0;
   int dof = 0;
   int iterations = 0;
-  bool errors_scaled = false;  // covariance multiplied by chi2/dof
+  bool errors_scaled = false;  // covariance multiplied by chi2/dof (> 1)
 
   std::size_t size() const { return params.size(); }
   std::size_t index(const std::string& name) const;  // throws std::out_of_range

@@ -12,6 +12,7 @@
 
 #include "analysis/errors.hpp"
 #include "analysis/json.hpp"
+#include "analysis/report.hpp"
 
 namespace jamflow::analysis {
 
@@ -258,9 +259,28 @@ SizeFit fit_size(std::int64_t n, const std::vector<GranularPoint>& points,
   fo.label = "phi = phi_J - C_phi J^b_phi (" + size_label(n) + ")";
   s.phi = fit_power_law_offset(phi_data, phi_form, fo);
   PowerLawForm mu_form{1.0, 1.0, 0.03, 1.5, "mu_J", "C_mu", "b_mu"};
-  fo.label = "mu = mu_J + C_mu J^b_mu (" + size_label(n) + ")";
-  s.mu = fit_power_law_offset(mu_data, mu_form, fo);
+  FitOptions fo_mu = fo;
+  fo_mu.label = "mu = mu_J + C_mu J^b_mu (" + size_label(n) + ")";
+  s.mu = fit_power_law_offset(mu_data, mu_form, fo_mu);
+
+  // Physical ranges: a packing fraction, a positive amplitude and exponent, a friction
+  // coefficient mu_J >= 0 (a negative one is a fit that has traded mu_J against C_mu, b_mu).
+  const double nn = static_cast<double>(n);
+  auto ref_b = [&](const char* b) {
+    return options.form_systematic ? std::optional<double>(paper_table2_at(b, nn)) : std::nullopt;
+  };
+  s.phi_errors = power_law_error_model(
+      phi_data, phi_form, s.phi, fo, ref_b("b_phi"),
+      {{"phi_J", 0.0, 1.0}, {"C_phi", 0.0, std::nullopt}, {"b_phi", 0.0, std::nullopt}}, "J");
+  s.mu_errors = power_law_error_model(
+      mu_data, mu_form, s.mu, fo_mu, ref_b("b_mu"),
+      {{"mu_J", 0.0, std::nullopt}, {"C_mu", 0.0, std::nullopt}, {"b_mu", 0.0, std::nullopt}}, "J");
   return s;
+}
+
+double paper_table2_at(const std::string& parameter, double n) {
+  const PaperTable2Entry& t = paper_table2(parameter);
+  return n > 0.0 ? t.inf + t.a * std::pow(n, -t.alpha) : t.inf;
 }
 
 namespace {
@@ -550,6 +570,28 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
       fo.scale_errors_by_chi2 = options.scale_errors;
       fo.label = name + "(N) = " + name + "_inf + A N^-alpha";
       Extrapolation ex = extrapolate_in_size(name, ns, vs, es, fo);
+      if (ex.status == Extrapolation::Status::kFit) {
+        const Measured a = ex.fit->at(1);
+        const double z = std::fabs(a.value) / a.error;
+        ex.resolved = z > options.resolved_amplitude_sigma;
+        ex.resolution = "A = " + fmt(a.value) + " +- " + fmt(a.error) + " (" + fmt(z) +
+                        " sigma from 0) over " + std::to_string(n_sizes) + " sizes" +
+                        (ex.resolved ? ": resolved"
+                                     : ": not resolved (needs |A| > " +
+                                           fmt(options.resolved_amplitude_sigma) + " sigma)");
+      } else {
+        // Why, without a value: an O_inf from a non-resolved extrapolation is no N -> infinity
+        // result (the JSON keeps it under `inf` with its status).
+        const char* why = ex.status == Extrapolation::Status::kConstant
+                              ? "a constant fits the sizes (no N-dependence resolved)"
+                          : ex.status == Extrapolation::Status::kExponentUnbounded
+                              ? "only the smallest size deviates (alpha_O bounded below only)"
+                          : ex.status == Extrapolation::Status::kNotResolved
+                              ? "no convergence with N"
+                              : "the fit failed";
+        ex.resolution =
+            std::string("not resolved: ") + why + ", over " + std::to_string(n_sizes) + " sizes";
+      }
       if (ex.status == Extrapolation::Status::kFailed)
         r.failures.push_back(ex.message);
       if (ex.status == Extrapolation::Status::kExponentUnbounded ||
@@ -563,33 +605,50 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
 
   auto find = [&](const std::string& name) -> const Extrapolation* {
     for (const auto& ex : r.extrapolations) {
-      if (ex.parameter == name && (ex.status == Extrapolation::Status::kFit ||
-                                   ex.status == Extrapolation::Status::kExponentUnbounded ||
-                                   ex.status == Extrapolation::Status::kConstant)) {
+      // Only a resolved extrapolation gives N -> infinity values (nu, the collapse, eta).
+      if (ex.parameter == name && ex.resolved)
         return &ex;
-      }
     }
     return nullptr;
   };
-  // nu = b / (alpha_O d) with b the N -> infinity exponent (paper Eq. nu).
+  auto find_b = [&](const std::string& name) -> const Extrapolation* {
+    if (const Extrapolation* e = find(name))
+      return e;
+    for (const auto& ex : r.extrapolations) {
+      // An exponent needs its N -> infinity value, not a resolved approach: a power law with an
+      // amplitude consistent with 0, a size-independent b (constant) or one whose approach
+      // exponent is only bounded below (alpha_unbounded) all have a determined O_inf.
+      if (ex.parameter == name && (ex.status == Extrapolation::Status::kFit ||
+                                   ex.status == Extrapolation::Status::kConstant ||
+                                   ex.status == Extrapolation::Status::kExponentUnbounded))
+        return &ex;
+    }
+    return nullptr;
+  };
+  // nu = b / (alpha_O d) with b the N -> infinity exponent (paper Eq. nu). alpha_O needs a
+  // resolved extrapolation of O_J; b a resolved one, or else a size-independent b (status
+  // constant: its weighted mean, stated in a warning).
   auto nu_from = [&](const std::string& b_name, const std::string& o_name,
                      std::optional<Measured>& out) {
-    const Extrapolation* b = find(b_name);
     const Extrapolation* o = find(o_name);
-    if (!b || !o)
-      return;
-    if (o->status == Extrapolation::Status::kConstant) {
-      r.warnings.push_back("nu from " + o_name + " not determined: " + o_name +
-                           "(N) shows no significant N-dependence");
+    if (!o) {
+      r.warnings.push_back("nu from " + o_name + " not determined: the extrapolation of " + o_name +
+                           "(N) is not resolved");
       return;
     }
-    if (o->status != Extrapolation::Status::kFit) {
-      r.warnings.push_back("nu from " + o_name + " not determined: alpha_" + o_name +
-                           " is only bounded below (> " + fmt(o->alpha_lower_bound) +
-                           "), so nu < " +
-                           fmt(b->inf.value / (o->alpha_lower_bound * options.dimension)));
-      return;
+    const Extrapolation* b = find_b(b_name);
+    if (!b) {
+      {
+        r.warnings.push_back("nu from " + o_name + " not determined: " + b_name +
+                             "(N -> infinity) is not resolved");
+        return;
+      }
     }
+    if (b->status == Extrapolation::Status::kConstant)
+      r.warnings.push_back("nu from " + o_name + ": " + b_name +
+                           " shows no significant N-dependence; its weighted mean over the "
+                           "sizes is used as " +
+                           b_name + "(N -> infinity)");
     const double d = options.dimension;
     const std::vector<double> p = {b->inf.value, o->fit->params[2]};
     const std::vector<double> cov = {b->inf.error * b->inf.error, 0.0, 0.0, o->fit->cov(2, 2)};
@@ -609,7 +668,7 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
     FiniteSizeCollapse c;
     c.parameter = label;
     const Extrapolation* o = find(o_name);
-    const Extrapolation* b = find(b_name);
+    const Extrapolation* b = find_b(b_name);
     if (!o || o->status != Extrapolation::Status::kFit) {
       c.unavailable = o_name + "(N) = " + o_name +
                       "_inf + A N^-alpha is not fitted (A and alpha are needed to scale)";

@@ -15,6 +15,7 @@
 
 #include "analysis/collapse.hpp"
 #include "analysis/data.hpp"
+#include "analysis/error_model.hpp"
 #include "analysis/fit.hpp"
 
 namespace jamflow::analysis {
@@ -83,19 +84,30 @@ std::vector<EnvelopePoint> select_envelope(const std::vector<GranularPoint>& poi
 
 struct HardSphereOptions {
   EnvelopeOptions envelope;
-  bool scale_errors = false;  // multiply covariances by chi2/dof
+  bool scale_errors = true;  // multiply covariances by chi2/dof where it exceeds 1
   // Window for the effective viscosity exponent, in phi. Unset: the default
   // phi_J - 0.1 .. phi_J - 0.01, the range of typical experiments.
   std::optional<double> window_min, window_max;
   int dimension = 3;
   int min_sizes_for_extrapolation = 4;  // 3 parameters + 1 degree of freedom
+  // The form systematic of each size's fits: refit with b_phi (b_mu) fixed at the seed's
+  // Table 2 law at that N (error_model.hpp).
+  bool form_systematic = true;
+  // An extrapolation is resolved (its O_inf used as the N -> infinity value) when it is a
+  // power-law fit whose amplitude differs from 0 by more than this many sigma.
+  double resolved_amplitude_sigma = 2.0;
 };
+
+// The seed's Table 2 law O(N) = O_inf + A N^-alpha of a parameter at size N (SPEC §5).
+double paper_table2_at(const std::string& parameter, double n);
 
 struct SizeFit {
   std::int64_t n = 0;
   std::vector<EnvelopePoint> points;
   FitResult phi;  // parameters phi_J, C_phi, b_phi
   FitResult mu;   // parameters mu_J, C_mu, b_mu
+  // Statistical and systematic errors and the degeneracy flag of each fit (window: J).
+  ErrorModel phi_errors, mu_errors;
   std::size_t points_used = 0;
   double j_min = 0.0, j_max = 0.0;  // envelope range
 };
@@ -126,6 +138,11 @@ struct Extrapolation {
   double chi2 = 0.0;               // at the optimum
   int dof = 0;
   std::string message;  // why not kFit
+  // Resolved: a kFit whose amplitude A differs from 0 by more than
+  // HardSphereOptions::resolved_amplitude_sigma, from at least min_sizes_for_extrapolation
+  // sizes. Only a resolved O_inf is an N -> infinity value; `resolution` says why (not).
+  bool resolved = false;
+  std::string resolution;
 };
 
 // Exposed for tests: sizes, values and errors of one parameter.

@@ -75,6 +75,15 @@ std::vector<HoudayerHartmann::Scaled> HoudayerHartmann::scaled(const CollapsePar
 
 CollapseQuality HoudayerHartmann::evaluate(const CollapseParams& p,
                                            const std::vector<double>* sigma_override) const {
+  return houdayer_hartmann(log_scaled(p, sigma_override));
+}
+
+CollapseQuality HoudayerHartmann::evaluate_pairwise(const CollapseParams& p) const {
+  return pairwise_interpolation(log_scaled(p, nullptr));
+}
+
+std::vector<CollapsePoint> HoudayerHartmann::log_scaled(
+    const CollapseParams& p, const std::vector<double>* sigma_override) const {
   std::vector<CollapsePoint> scaled;
   scaled.reserve(points_.size());
   for (std::size_t i = 0; i < points_.size(); ++i) {
@@ -86,7 +95,7 @@ CollapseQuality HoudayerHartmann::evaluate(const CollapseParams& p,
     scaled.push_back({log_gdot_[i] - (p.alpha + p.beta) * ld, ls - p.alpha * ld, dy_[i], set_of_[i],
                       d > 0 ? 1 : 0});
   }
-  return houdayer_hartmann(scaled);
+  return scaled;
 }
 
 namespace {
@@ -306,6 +315,29 @@ OlssonTeitelResult analyze_olsson_teitel(const std::vector<ShearPoint>& points,
                                 "overlap in scaled variables");
   }
   r.best = optimize_collapse(hh, options.start.value_or(options.at), options, options.seed);
+  {
+    // The pairwise measure's own optimum, by the same optimiser and overlap constraint, from
+    // the Houdayer–Hartmann optimum.
+    const Domain dom = domain_of(hh);
+    std::function<double(const CollapseParams&)> f = [&](const CollapseParams& p) {
+      if (objective(hh, dom, p, options.min_overlap, nullptr) >= kPenalty)
+        return kPenalty;
+      const CollapseQuality q = hh.evaluate_pairwise(p);
+      if (q.used == 0 ||
+          static_cast<double>(q.used) < options.min_overlap * static_cast<double>(q.total) ||
+          !std::isfinite(q.s))
+        return kPenalty;
+      return q.s;
+    };
+    double value = 0.0;
+    const CollapseParams pair_best = nelder_mead(f, r.best.best, 2, value);
+    auto compare = [&](const std::string& label, const CollapseParams& p) {
+      r.measures.push_back({label, p, hh.evaluate(p), hh.evaluate_pairwise(p)});
+    };
+    compare("paper's parameters", options.at);
+    compare("Houdayer-Hartmann optimum", r.best.best);
+    compare("pairwise-interpolation optimum", pair_best);
+  }
   if (options.soft) {
     try {
       r.soft = compare_soft(points, options);

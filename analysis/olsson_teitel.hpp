@@ -36,6 +36,8 @@ class HoudayerHartmann {
   // the measured stresses, for the bootstrap.
   CollapseQuality evaluate(const CollapseParams& p,
                            const std::vector<double>* sigma_override = nullptr) const;
+  // The independent pairwise-interpolation measure (collapse.hpp) at the same parameters.
+  CollapseQuality evaluate_pairwise(const CollapseParams& p) const;
 
   // Scaled coordinates of every point (for plots): x = gdot/|dphi|^(a+b),
   // y = sigma/|dphi|^a, branch = sign(phi - phi_J).
@@ -50,6 +52,8 @@ class HoudayerHartmann {
   const std::vector<std::string>& set_names() const { return set_names_; }
 
  private:
+  std::vector<CollapsePoint> log_scaled(const CollapseParams& p,
+                                        const std::vector<double>* sigma_override) const;
   std::vector<ShearPoint> points_;
   std::vector<std::size_t> set_of_;
   std::vector<std::string> set_names_;
@@ -113,7 +117,18 @@ struct CollapseSubset {
   bool trade_off = false;
 };
 
+// The collapse at one parameter set under both measures (collapse.hpp): whether "a collapse"
+// is a property of the data or of the estimator.
+struct MeasureComparison {
+  std::string label;
+  CollapseParams params;
+  CollapseQuality houdayer_hartmann, pairwise;
+};
+
 struct OlssonTeitelResult {
+  // At the paper's parameters, at the Houdayer–Hartmann optimum and at the pairwise measure's
+  // own optimum (same optimiser and overlap constraint).
+  std::vector<MeasureComparison> measures;
   std::int64_t n = 0;
   std::size_t points = 0, sets = 0;
   CollapseParams at;

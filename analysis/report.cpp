@@ -41,6 +41,45 @@ Json fit_summary(const FitResult& f) {
   return j;
 }
 
+Json strings_json(const std::vector<std::string>& xs);
+
+// A number that may be NaN (not computable) as a JSON number or null.
+Json number_or_null(double x) {
+  return std::isfinite(x) ? Json(x) : Json();
+}
+
+}  // namespace
+
+Json error_model_json(const ErrorModel& m) {
+  Json j = Json::object();
+  j["reduced_chi2"] = m.reduced_chi2;
+  j["dof"] = m.dof;
+  j["errors_scaled_by_sqrt_chi2_dof"] = m.errors_scaled;
+  j["degenerate"] = m.degenerate;
+  if (m.degenerate)
+    j["degenerate_reason"] = m.degenerate_reason;
+  Json params = Json::object();
+  for (const auto& p : m.parameters) {
+    Json jp = Json::object();
+    jp["value"] = p.value;
+    jp["statistical"] = p.statistical;
+    jp["window"] = number_or_null(p.window);
+    jp["form"] = number_or_null(p.form);
+    jp["systematic"] = number_or_null(p.systematic());
+    params[p.name] = jp;
+  }
+  j["parameters"] = params;
+  j["notes"] = strings_json(m.notes);
+  j["meaning"] =
+      "statistical: covariance error, times sqrt(chi2/dof) when chi2/dof > 1; window: largest "
+      "shift when the points at the largest or at the smallest x are dropped; form: shift with "
+      "the exponent fixed at the reference; systematic: window and form in quadrature; "
+      "degenerate: a parameter outside its physical range or with error >= |value|";
+  return j;
+}
+
+namespace {
+
 Json strings_json(const std::vector<std::string>& xs) {
   Json a = Json::array();
   for (const auto& x : xs)
@@ -179,6 +218,9 @@ Json viscosity_json(const ViscosityLaw& v) {
   j["effective_exponent"] = measured_json(v.effective_exponent);
   j["local_exponent_at_phimin"] = measured_json(v.local_exponent_at_min);
   j["local_exponent_at_phimax"] = measured_json(v.local_exponent_at_max);
+  // The seed's trade-off (Sec. IV C): an effective exponent anywhere between the subleading
+  // (1 - b_mu)/b_phi and the asymptotic 1/b_phi.
+  j["beta_interval"] = Json(std::vector<double>{v.exponent_2.value, v.exponent_1.value});
   return j;
 }
 
@@ -197,8 +239,37 @@ Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
   Json sizes = Json::object();
   for (const auto& s : r.sizes) {
     Json js = Json::object();
-    for (const auto& name : hard_sphere_parameters())
-      js[name] = measured_json(size_param(s, name));
+    for (const auto& name : hard_sphere_parameters()) {
+      Json m = measured_json(size_param(s, name));
+      const ErrorModel& em =
+          name == "phi_J" || name == "b_phi" || name == "C_phi" ? s.phi_errors : s.mu_errors;
+      for (const auto& p : em.parameters) {
+        if (p.name == name)
+          m["systematic"] = number_or_null(p.systematic());
+      }
+      js[name] = m;
+    }
+    js["errors_phi"] = error_model_json(s.phi_errors);
+    js["errors_mu"] = error_model_json(s.mu_errors);
+    js["degenerate"] = s.phi_errors.degenerate || s.mu_errors.degenerate;
+    {
+      // The viscosity eta/eta_0 = mu/J the envelope points reach (Fig. 7).
+      double lo = 0.0, hi = 0.0;
+      for (const auto& e : s.points) {
+        const double eta = e.point.mu / e.point.j;
+        if (!in_envelope(e.status) || !(eta > 0.0) || !std::isfinite(eta))
+          continue;
+        lo = lo > 0.0 ? std::min(lo, eta) : eta;
+        hi = std::max(hi, eta);
+      }
+      if (hi > 0.0) {
+        Json je = Json::object();
+        je["min"] = lo;
+        je["max"] = hi;
+        je["decades"] = std::log10(hi / lo);
+        js["envelope_eta"] = je;
+      }
+    }
     js["points_used"] = static_cast<std::int64_t>(s.points_used);
     js["points_total"] = static_cast<std::int64_t>(s.points.size());
     js["J_range"] = Json(std::vector<double>{s.j_min, s.j_max});
@@ -250,6 +321,7 @@ Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
         je["A"] = measured_json(e.fit->at(1));
         je["alpha"] = measured_json(e.fit->at(2));
         je["fit"] = fit_summary(*e.fit);
+        je["reduced_chi2"] = e.fit->reduced_chi2();
         break;
       case Extrapolation::Status::kExponentUnbounded: {
         je["status"] = "alpha_unbounded";
@@ -278,6 +350,8 @@ Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
         je["failed"] = e.message;
         break;
     }
+    je["resolved"] = e.resolved;
+    je["resolution"] = e.resolution;
     ex[e.parameter] = je;
   }
   j["extrapolated"] = ex;
@@ -306,7 +380,10 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
      << " sigma with the next lower pressure at the same J (or, where no lower pressure "
         "reaches that J, with the next higher one); the first disagreement with a lower "
         "pressure ends that pressure's envelope. Errors are 1 sigma from the fit covariance"
-     << (o.scale_errors ? ", scaled by sqrt(chi2/dof)" : " (not scaled by chi2/dof)") << ".\n\n";
+     << (o.scale_errors ? ", scaled by sqrt(chi2/dof) where chi2/dof > 1"
+                        : " (not scaled by chi2/dof)")
+     << "; the second number of each parameter is its systematic error (J window and fit form "
+        "in quadrature, JSON `errors_phi`, `errors_mu`).\n\n";
   md << "## Per-size fits: phi = phi_J - C_phi J^b_phi, mu = mu_J + C_mu J^b_mu\n\n";
   md << "| N | points | J range | phi_J | b_phi | C_phi | mu_J | b_mu | C_mu | chi2/dof phi | "
         "chi2/dof mu |\n";
@@ -315,10 +392,22 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
     md << "| " << s.n << " | " << s.points_used << "/" << s.points.size() << " | "
        << fmt(s.j_min, "%.2g") << "–" << fmt(s.j_max, "%.2g");
     for (const auto& name : hard_sphere_parameters()) {
-      md << " | " << format_measured(size_param(s, name));
+      const ErrorModel& em =
+          name == "phi_J" || name == "b_phi" || name == "C_phi" ? s.phi_errors : s.mu_errors;
+      const double sys = em[name].systematic();
+      md << " | " << format_measured(size_param(s, name)) << " ± "
+         << (std::isfinite(sys) ? fmt(sys, "%.2g") : std::string("n/a")) << " (sys)";
     }
-    md << " | " << fmt(s.phi.reduced_chi2(), "%.2f") << " | " << fmt(s.mu.reduced_chi2(), "%.2f")
+    md << " | " << fmt(s.phi.reduced_chi2(), "%.2f") << (s.phi.errors_scaled ? " (scaled)" : "")
+       << " | " << fmt(s.mu.reduced_chi2(), "%.2f") << (s.mu.errors_scaled ? " (scaled)" : "")
        << " |\n";
+  }
+  for (const auto& s : r.sizes) {
+    for (const ErrorModel* em : {&s.phi_errors, &s.mu_errors}) {
+      if (em->degenerate)
+        md << "\nN = " << s.n
+           << ": degenerate fit, not compared with the paper: " << em->degenerate_reason << ".\n";
+    }
   }
   for (const auto& u : r.unfitted) {
     md << "| " << u.n << " | not fitted | | | | | | | | | |\n";
@@ -341,8 +430,10 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
            << fmt(t.inf) << " | | | " << fmt(t.a) << " | | " << fmt(t.alpha) << " | |\n";
         continue;
       }
+      // Only a resolved extrapolation is an N -> infinity value to compare in sigma.
       md << "| " << e.parameter << " | " << format_measured(e.inf) << " | " << fmt(t.inf) << " | "
-         << pull_md(e.inf.value, e.inf.error, t.inf) << " | ";
+         << (e.resolved ? pull_md(e.inf.value, e.inf.error, t.inf) : std::string("not resolved"))
+         << " | ";
       if (e.status == Extrapolation::Status::kFit) {
         md << format_measured(e.fit->at(1)) << " | " << fmt(t.a) << " | "
            << format_measured(e.fit->at(2)) << " | " << fmt(t.alpha) << " | "
@@ -355,7 +446,10 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
            << fmt(t.alpha) << " | " << fmt(e.chi2 / std::max(e.dof, 1), "%.2f") << " |\n";
       }
     }
-    md << "\n(pull = (ours - paper)/our error. A_O 'not resolved': chi2 keeps decreasing as "
+    md << "\n(pull = (ours - paper)/our error, only for a resolved extrapolation: a power-law "
+          "fit whose A_O differs from 0 by more than "
+       << fmt(o.resolved_amplitude_sigma)
+       << " sigma. A_O 'not resolved': chi2 keeps decreasing as "
           "alpha grows, only the smallest size deviates; O_inf then has a profile-likelihood "
           "error and alpha only a lower bound. 'no significant N-dependence': a constant fits; "
           "O_inf is the weighted mean. O_inf 'not resolved': no convergence with N, O_inf "
@@ -502,12 +596,31 @@ Json hard_sphere_plot_data(const HardSphereResult& r) {
 
 namespace {
 
-// The paper's values for the joint law: x, y (Sec. V A), 1/x, and Table 2's N -> infinity
-// hard-sphere parameters (NaN: the paper gives no number).
-double paper_joint(std::size_t k) {
-  static const double v[10] = {0.6474, std::nan(""), 0.75, 0.0683, 0.391,
-                               0.108,  std::nan(""), 0.56, 0.347,  0.346};
-  return v[k];
+// The paper's values for the joint law: x, y (Sec. V A), and the hard-sphere parameters from
+// Table 2's size law at the fit's N, the same values the soft-rheology study's report uses
+// (NaN: the paper gives no number).
+double paper_joint(std::size_t k, std::int64_t n) {
+  switch (k) {
+    case 2:
+      return 0.75;
+    case 7:
+      return 0.56;
+    case 1:
+    case 6:
+      return std::nan("");
+    default: {
+      static const char* const hs[10] = {"phi_J", "", "", "C_phi", "b_phi",
+                                         "mu_J",  "", "", "C_mu",  "b_mu"};
+      return paper_table2_at(hs[k], static_cast<double>(n));
+    }
+  }
+}
+
+double quadrature_systematic(const JointSoftFit& f, std::size_t k) {
+  double s2 = 0.0;
+  for (double s : {f.pressure_window[k], f.j_window[k]})
+    s2 += std::isfinite(s) ? s * s : 0.0;
+  return std::sqrt(s2);
 }
 
 }  // namespace
@@ -517,9 +630,39 @@ Json joint_soft_json(const JointSoftFit& f, const YieldComparison* yield) {
   j["formula"] =
       "phi = phi_J0 + c_phi P^x - C_phi J^b_phi, mu = mu_J0 - c_mu P^y + C_mu J^b_mu, fitted "
       "over every pressure and J at once";
-  for (std::size_t k = 0; k < 10; ++k)
-    j[SoftLaw::names()[k]] = measured_json(f.params[k]);
+  for (std::size_t k = 0; k < 10; ++k) {
+    Json m = measured_json(f.params[k]);
+    m["pressure_window"] = number_or_null(f.pressure_window[k]);
+    m["J_window"] = number_or_null(f.j_window[k]);
+    m["systematic"] = quadrature_systematic(f, k);
+    j[SoftLaw::names()[k]] = m;
+  }
+  {
+    Json refits = Json::array();
+    for (const auto& r : f.window_refits) {
+      Json jr = Json::object();
+      jr["label"] = r.label;
+      for (std::size_t k = 0; k < 10; ++k)
+        jr[SoftLaw::names()[k]] = r.params[k];
+      refits.push_back(jr);
+    }
+    j["window_refits"] = refits;
+    j["window_notes"] = strings_json(f.window_notes);
+    j["systematics_meaning"] =
+        "pressure_window (J_window): the largest shift of the parameter when the points at the "
+        "largest or at the smallest pressure (J) are dropped and the law refitted; systematic: "
+        "both in quadrature";
+  }
   j["alpha"] = measured_json(f.alpha);
+  {
+    // The bootstrap draws each point with its error times sqrt(max(1, chi2/dof)) of its half.
+    Json sc = Json::object();
+    sc["reduced_chi2_phi"] = f.phi_fit.reduced_chi2();
+    sc["reduced_chi2_mu"] = f.mu_fit.reduced_chi2();
+    sc["errors_scaled_phi"] = f.noise_scale_phi > 1.0;
+    sc["errors_scaled_mu"] = f.noise_scale_mu > 1.0;
+    j["error_scaling"] = sc;
+  }
   j["fit_phi"] = fit_summary(f.phi_fit);
   j["fit_mu"] = fit_summary(f.mu_fit);
   Json b = Json::object();
@@ -571,16 +714,33 @@ std::string joint_soft_markdown(const JointSoftFit& f, const YieldComparison* yi
      << fmt(f.noise_scale_phi, "%.2f") << " for phi, " << fmt(f.noise_scale_mu, "%.2f")
      << " for mu). chi2/dof: phi " << fmt(f.phi_fit.reduced_chi2(), "%.2f") << " (" << f.phi_fit.dof
      << " dof), mu " << fmt(f.mu_fit.reduced_chi2(), "%.2f") << ".\n\n";
-  md << "| parameter | joint fit | paper | difference (sigma) |\n|---|---|---|---|\n";
+  md << "| parameter | joint fit (statistical) | pressure window | J window | paper | "
+        "difference (sigma, statistical and systematic in quadrature) |\n"
+        "|---|---|---|---|---|---|\n";
+  auto sys_md = [](double s) { return std::isfinite(s) ? fmt(s, "%.2g") : std::string("-"); };
   for (std::size_t k = 0; k < 10; ++k) {
-    const double ref = paper_joint(k);
+    const double ref = paper_joint(k, f.n);
+    const double total = std::hypot(f.params[k].error, quadrature_systematic(f, k));
     md << "| " << SoftLaw::names()[k] << " | " << format_measured(f.params[k]) << " | "
+       << sys_md(f.pressure_window[k]) << " | " << sys_md(f.j_window[k]) << " | "
        << (std::isfinite(ref) ? fmt(ref) : "-") << " | "
-       << (std::isfinite(ref) ? pull_md(f.params[k].value, f.params[k].error, ref) : "") << " |\n";
+       << (std::isfinite(ref) ? pull_md(f.params[k].value, total, ref) : "") << " |\n";
   }
   md << "| alpha = 1/x (yield stress) | " << format_measured(f.alpha) << " | 1.33 | "
      << pull_md(f.alpha.value, f.alpha.error, 1.33) << " |\n\n";
-  md << "Paper values of phi_J0, C_phi, b_phi, mu_J0, C_mu, b_mu: Table 2 at N -> infinity.\n\n";
+  md << "Paper values of phi_J0, C_phi, b_phi, mu_J0, C_mu, b_mu: Table 2's size law at N = " << f.n
+     << ". Systematics: the largest shift when the points at the largest or smallest P "
+        "(J) are dropped and the law refitted.\n\n";
+  if (!f.window_refits.empty()) {
+    md << "| refit | x | y | phi_J0 | mu_J0 |\n|---|---|---|---|---|\n";
+    for (const auto& r : f.window_refits)
+      md << "| " << r.label << " | " << fmt(r.params[2], "%.4g") << " | "
+         << fmt(r.params[7], "%.4g") << " | " << fmt(r.params[0], "%.5g") << " | "
+         << fmt(r.params[5], "%.4g") << " |\n";
+    md << "\n";
+  }
+  for (const auto& n : f.window_notes)
+    md << "- " << n << "\n";
   for (const auto& n : f.resolution_notes)
     md << "- " << n << "\n";
   if (!f.resolution_notes.empty())
@@ -883,6 +1043,25 @@ Json olsson_teitel_json(const OlssonTeitelResult& r, const OlssonTeitelOptions& 
   splits["gdot"] = r.split_gdot;
   j["subset_splits"] = splits;
   j["subsets"] = subsets;
+  {
+    Json ms = Json::array();
+    for (const auto& m : r.measures) {
+      Json jm = Json::object();
+      jm["label"] = m.label;
+      jm["phi_J"] = m.params.phi_j;
+      jm["alpha"] = m.params.alpha;
+      jm["beta"] = m.params.beta;
+      jm["houdayer_hartmann"] = quality_json(m.houdayer_hartmann);
+      jm["pairwise_interpolation"] = quality_json(m.pairwise);
+      ms.push_back(jm);
+    }
+    j["measures"] = ms;
+    j["measures_meaning"] =
+        "the collapse quality under two estimators of the master curve (analysis/collapse.hpp): "
+        "Houdayer-Hartmann (one weighted line through the bracketing points of all other "
+        "curves) and pairwise interpolation (each other curve separately); acceptable: S <= 1 + "
+        "3 sqrt(2/N_used) under either";
+  }
   if (r.soft)
     j["soft"] = soft_comparison_json(*r.soft);
   else

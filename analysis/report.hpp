@@ -15,6 +15,9 @@ namespace jamflow::analysis {
 
 Json measured_json(const Measured& m);
 
+// The error model of one fit (error_model.hpp) as JSON.
+Json error_model_json(const ErrorModel& m);
+
 // "0.6474 ± 0.0012" with the error to two significant digits.
 std::string format_measured(const Measured& m);
 

@@ -177,6 +177,7 @@ SoftResult analyze_soft(const std::vector<GranularPoint>& points, const SoftOpti
     s.points = pts;
     try {
       s.joint = fit_soft_joint(pts, options.joint);
+      soft_window_systematics(*s.joint, pts);
       for (const auto& note : s.joint->resolution_notes)
         r.warnings.push_back("N=" + std::to_string(n) + ": " + note);
     } catch (const AnalysisError& e) {
@@ -589,6 +590,53 @@ std::string resolution_note(const JointSoftFit& f, bool is_y, const std::vector<
 }
 
 }  // namespace
+
+void soft_window_systematics(JointSoftFit& f, const std::vector<GranularPoint>& points) {
+  auto fmt = [](double x) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g", x);
+    return std::string(buf);
+  };
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  f.pressure_window.fill(nan);
+  f.j_window.fill(nan);
+  f.window_refits.clear();
+  const auto best = f.law.values();
+  JointSoftOptions no_bootstrap;
+  no_bootstrap.bootstrap = 0;
+  auto refit = [&](bool by_pressure, bool highest, std::array<double, 10>& window) {
+    double edge = highest ? -std::numeric_limits<double>::infinity()
+                          : std::numeric_limits<double>::infinity();
+    for (const auto& g : points) {
+      const double v = by_pressure ? g.pressure : g.j;
+      edge = highest ? std::max(edge, v) : std::min(edge, v);
+    }
+    std::vector<GranularPoint> kept;
+    for (const auto& g : points) {
+      const double v = by_pressure ? g.pressure : g.j;
+      if (!(std::fabs(v - edge) <= 1e-9 * std::fabs(edge)))
+        kept.push_back(g);
+    }
+    const std::string label = std::string("without ") + (by_pressure ? "P = " : "J = ") +
+                              fmt(edge) + " (the " + (highest ? "largest" : "smallest") +
+                              (by_pressure ? " pressure" : " J") + ")";
+    try {
+      const JointSoftFit g = fit_soft_joint(kept, no_bootstrap, f.law);
+      const auto v = g.law.values();
+      f.window_refits.push_back({label, v});
+      for (std::size_t k = 0; k < 10; ++k) {
+        const double s = std::fabs(v[k] - best[k]);
+        window[k] = std::isfinite(window[k]) ? std::max(window[k], s) : s;
+      }
+    } catch (const AnalysisError& e) {
+      f.window_notes.push_back("refit " + label + " not done: " + e.what());
+    }
+  };
+  for (bool highest : {true, false})
+    refit(true, highest, f.pressure_window);
+  for (bool highest : {true, false})
+    refit(false, highest, f.j_window);
+}
 
 JointSoftFit fit_soft_joint(const std::vector<GranularPoint>& points,
                             const JointSoftOptions& options, const std::optional<SoftLaw>& start) {

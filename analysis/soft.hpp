@@ -81,6 +81,17 @@ struct JointSoftFit {
   double noise_scale_phi = 1.0, noise_scale_mu = 1.0;  // sqrt(max(1, chi2/dof))
   // Why x or y is not resolved to options.y_target (empty when it is).
   std::vector<std::string> resolution_notes;
+  // Systematics (error_model.hpp), from refits without bootstrap on reduced data: the points
+  // at the largest or the smallest P dropped (pressure window), and those at the largest or the
+  // smallest J (J window). Each refit's ten parameters under its label ("without P = 0.01",
+  // ...); per parameter the largest shift of each window (NaN: no refit could be done).
+  struct Refit {
+    std::string label;
+    std::array<double, 10> params{};
+  };
+  std::vector<Refit> window_refits;
+  std::array<double, 10> pressure_window{}, j_window{};
+  std::vector<std::string> window_notes;  // refits that could not be done, and why
 
   // Bootstrap standard deviation of any function of the law (0 without resamples).
   double spread(const std::function<double(const SoftLaw&)>& f) const;
@@ -91,6 +102,9 @@ struct JointSoftFit {
 JointSoftFit fit_soft_joint(const std::vector<GranularPoint>& points,
                             const JointSoftOptions& options,
                             const std::optional<SoftLaw>& start = std::nullopt);
+
+// Fills f.window_refits, f.pressure_window and f.j_window (refits of `points` from f.law).
+void soft_window_systematics(JointSoftFit& f, const std::vector<GranularPoint>& points);
 
 // Why x or y is not resolved to `target` given the fit's errors (empty when both are): the
 // notes fit_soft_joint attaches, for callers that replace the errors afterwards.
@@ -118,7 +132,7 @@ struct SoftOptions {
   HardSphereOptions hard_sphere;  // envelope and fit options for the shape
   // Fixed shape for every N instead of the per-N hard-sphere fit.
   std::optional<HardSphereShape> fixed_shape;
-  bool scale_errors = false;
+  bool scale_errors = true;  // multiply covariances by chi2/dof where it exceeds 1
   JointSoftOptions joint;
   // The per-pressure collapse needs 4 pressures and the hard-sphere envelope; when it cannot be
   // done, true throws (the library default), false keeps the joint fit and says why.

@@ -59,6 +59,9 @@ int study_main(const std::vector<std::string>& args) {
       ->check(CLI::Range(1, 100000));
   app.add_option("--partition", opt.slurm_partition, "Slurm partition (--slurm)");
   app.add_flag("--no-plots", opt.no_plots, "skip PNG plots");
+  app.add_flag("--report-only", opt.report_only,
+               "rebuild the analysis and report from OUT/table.csv without running points "
+               "(hard-sphere, finite-size, soft-rheology)");
   app.add_option("--only", opt.only, "study paper: run only these studies (in its order)")
       ->delimiter(',');
   std::vector<std::string> rev(args.rbegin(), args.rend());

@@ -14,6 +14,7 @@
 
 #include "analysis/analyze_cli.hpp"
 #include "analysis/json.hpp"
+#include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "studies/common.hpp"
 #include "studies/table_report.hpp"
@@ -48,7 +49,7 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
     double seconds = 0.0, particle_evaluations = 0.0, particle_time = 0.0;
     double estimated_seconds = 0.0;  // the sweep's estimate (sweep::estimate_cost) of them
   };
-  // Integrator label of a point, as integrator_for chose it.
+  // Integrator label of a point as the preset chooses it (for the paper preset's points)...
   const auto label = [](std::int64_t n, double p) {
     const IntegratorChoice ic = integrator_for(n, p);
     if (ic.kind == "cvode")
@@ -56,6 +57,25 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
     if (ic.kind == "rkc")
       return std::string("rkc atol=delta");
     return ic.kind + " dt " + num(ic.dt, 2);
+  };
+  // ...and as the table records it (what the points really ran), in the same words.
+  const auto table_label = [&](std::size_t r) {
+    if (table.column("integrator") < 0)
+      return label(std::int64_t(table.number(r, "N")), table.number(r, "P"));
+    const std::string t = table.text(r, "integrator");
+    for (const char* kind : {"cvode", "rkc", "respa", "euler"}) {
+      if (t.find(std::string("kind") + kind) == std::string::npos)
+        continue;
+      if (std::string(kind) == "cvode")
+        return std::string("cvode");
+      if (std::string(kind) == "rkc")
+        return std::string("rkc atol=delta");
+      const auto dt = t.find("dt");
+      return std::string(kind) + " dt " +
+             (dt == std::string::npos ? std::string("?")
+                                      : t.substr(dt + 2, t.find('_', dt) - dt - 2));
+    }
+    return t;
   };
   std::map<std::string, double> estimated_per_point;  // point name -> estimated CPU seconds
   for (const auto& t : run.plan.tasks())              // Task::cost is in CPU seconds
@@ -77,7 +97,7 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
     from_wall += !has_cpu || table.number(r, "cpu_from_wall") > 0.5 ? 1 : 0;
     const double reps = std::max(1.0, table.number(r, "replicas"));
     const double t = table.number(r, "run.t_eq") + table.number(r, "run.t_av");
-    for (Cost* c : {&by_kind[label(std::int64_t(n), table.number(r, "P"))], &all}) {
+    for (Cost* c : {&by_kind[table_label(r)], &all}) {
       ++c->points;
       c->estimated_seconds += estimated_per_point[table.text(r, "point")];
       c->seconds += wall;
@@ -115,8 +135,27 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
   md << ".\n\n"
      << markdown_table({"integrator", "points", "CPU hours", "ns per particle force evaluation",
                         "force evaluations per tau_0", "ns per particle per tau_0"},
-                       rows)
-     << "\nThe most expensive point: " << slowest << ", " << num(slowest_seconds, 3)
+                       rows);
+  // Which integrator was cheaper here, from these numbers only (and only when more than one
+  // ran: the points of different integrators are at different state points, so this compares
+  // their costs where each ran, not at equal accuracy).
+  if (by_kind.size() > 1) {
+    std::string cheapest;
+    double best = 0.0;
+    for (const auto& [kind, c] : by_kind) {
+      if (c.particle_time <= 0.0)
+        continue;
+      const double v = 1e9 * c.seconds / c.particle_time;
+      if (cheapest.empty() || v < best) {
+        cheapest = kind;
+        best = v;
+      }
+    }
+    if (!cheapest.empty())
+      md << "\nPer particle and tau_0, " << cheapest << " cost least here (" << num(best, 3)
+         << " ns), over the points it ran (the integrators ran different state points).\n";
+  }
+  md << "\nThe most expensive point: " << slowest << ", " << num(slowest_seconds, 3)
      << " CPU seconds over its replicas. The estimate before the run was "
      << num(run.cpu_hours_estimate, 3)
      << " CPU-hours (each integrator's measured CPU time per particle and tau_0)";
@@ -142,8 +181,23 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
 
 }  // namespace
 
+SweepStudy existing_sweep(const std::string& out_dir) {
+  SweepStudy s;
+  const fs::path sweep_file = fs::path(out_dir) / "sweep.toml";
+  s.table = (fs::path(out_dir) / "table.csv").string();
+  if (!fs::exists(sweep_file) || !fs::exists(s.table))
+    throw ConfigError("--report-only: " + sweep_file.string() + " and " + s.table +
+                      " must exist (allowed: an output folder of an earlier run of the study)");
+  s.plan = sweep::load_plan(sweep_file.string(), out_dir);
+  s.finished = read_table(s.table).rows.size();
+  s.cpu_hours_estimate = sweep::estimate_cost(s.plan).cpu_hours;
+  return s;
+}
+
 int run_grid_study(const std::string& study, const GridPreset& grid, const StudyOptions& options) {
   const auto start = std::chrono::steady_clock::now();
+  if (options.report_only)
+    return analyze_and_report(study, grid, existing_sweep(options.out_dir), options, 0.0);
   SweepStudy points;
   if (auto status = run_sweep_study(study, sweep_text(grid), options, points))
     return *status;
@@ -216,21 +270,39 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
   // 4. The report.
   std::ostringstream md;
   md << "# " << study << " study, preset `" << grid.name << "`\n\n";
-  md << "Constant pressure, harmonic spheres (alpha_r = 2), " << grid.why << ". ";
-  md << "Each point runs t_eq = max(" << num(grid.strain_eq, 3) << "/gdot, "
-     << num(grid.relax_pressure, 3) << "/P, " << num(grid.t_eq_min, 3) << ") and t_av = max("
-     << num(grid.strain_av, 3) << "/gdot, " << num(grid.t_av_min, 3) << "), " << grid.replicas
-     << " replicas (seeds 1.." << grid.replicas << "); integrators:";
   {
-    std::map<std::string, int> seen;
-    for (const auto n : grid.sizes) {
-      for (const double p : grid.pressures)
-        ++seen[integrator_for(n, p).why];
+    // What the table holds, from the table (a report rebuilt from an older table describes
+    // that table, not the current preset).
+    std::set<std::int64_t> ns;
+    std::set<double> ps, reps;
+    std::map<std::string, int> integrators;
+    double jmin = 1e300, jmax = 0.0;
+    for (std::size_t r = 0; r < table.rows.size(); ++r) {
+      ns.insert(std::int64_t(table.number(r, "N")));
+      ps.insert(table.number(r, "P"));
+      reps.insert(table.number(r, "replicas"));
+      jmin = std::min(jmin, table.number(r, "J"));
+      jmax = std::max(jmax, table.number(r, "J"));
+      ++integrators[table.column("integrator") >= 0 ? table.text(r, "integrator") : "?"];
     }
-    for (const auto& [why, count] : seen)
-      md << " " << why << ";";
+    auto list = [](const auto& xs) {
+      std::string t;
+      for (const auto& x : xs)
+        t += (t.empty() ? "" : ", ") + num(double(x), 3);
+      return t;
+    };
+    md << "Constant pressure, harmonic spheres (alpha_r = 2). The table: N = " << list(ns)
+       << "; P = " << list(ps) << "; J from " << num(jmin, 3) << " to " << num(jmax, 3)
+       << "; replicas per point: " << list(reps) << "; integrators (table column, points):";
+    for (const auto& [kind, count] : integrators)
+      md << " " << kind << " (" << count << ")";
+    md << ". Run lengths per point: table.csv (run.t_eq, run.t_av).\n\n";
+    if (*reps.begin() < 3)
+      md << "Points with fewer than 3 replicas: their errors in table.csv are the larger of the "
+            "block error and the replica scatter, as collected; a scatter of 2 replicas is a "
+            "1-degree-of-freedom estimate, and the table has no separate block errors to fall "
+            "back on.\n\n";
   }
-  md << " (the timestep study's findings, SPEC §4).\n\n";
   md << "- Points: " << run.plan.points.size() << " x " << run.plan.replicas << " replicas, "
      << run.finished << " finished in every replica (table.csv); the sweep is in runs/ "
      << "(`jamflow sweep sweep.toml --out runs`).\n";
@@ -326,6 +398,11 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
   if (analysis_status != 0)
     md << "`jamflow analyze hard-sphere` exited with status " << analysis_status
        << " (see analysis.md and the messages above): what it could not fit is missing here.\n\n";
+  md << "Statistical errors from the fit covariance, multiplied by sqrt(chi2/dof) where chi2/dof "
+        "> 1; systematic: the largest shift when the highest or the lowest J is dropped, and the "
+        "shift with b fixed at the seed's law at this N, in quadrature (analysis.json "
+        "`errors_phi`, `errors_mu`). The difference from the seed's law at the same N uses both "
+        "in quadrature; a degenerate fit is not compared.\n\n";
   if (result.is_object() && result.contains("sizes")) {
     for (const auto& [n, fit] : result.at("sizes").members()) {
       const double nn = std::stod(n);
@@ -340,11 +417,39 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
         double v = 0.0, e = 0.0;
         if (!measured(fit, p, v, e))
           continue;
+        const auto& em = fit.at(std::string(p) == "phi_J" || std::string(p) == "b_phi" ||
+                                        std::string(p) == "C_phi"
+                                    ? "errors_phi"
+                                    : "errors_mu");
+        // null: no systematic could be computed (too few points for the refits).
+        const bool has_sys =
+            fit.at(p).contains("systematic") && fit.at(p).at("systematic").is_number();
+        const double sys = has_sys ? fit.at(p).at("systematic").as_number() : 0.0;
         const double seed = seed_value(p, nn);
-        rows.push_back({p, pm(v, e), num(seed, 4), sigma_text(v, e, seed)});
+        const bool degenerate = em.contains("degenerate") && em.at("degenerate").as_bool();
+        rows.push_back({p, pm(v, e), has_sys ? num(sys, 2) : "not computable", num(seed, 4),
+                        degenerate ? "degenerate fit: not compared"
+                                   : sigma_text(v, std::hypot(e, sys), seed)});
       }
-      md << markdown_table({"parameter", "jamflow", "seed at this N (Table 2 law)", "difference"},
+      md << markdown_table({"parameter", "jamflow (statistical)", "systematic",
+                            "seed at this N (Table 2 law)", "difference"},
                            rows);
+      for (const char* which : {"errors_phi", "errors_mu"}) {
+        if (!fit.contains(which))
+          continue;
+        const auto& em = fit.at(which);
+        const double chi = em.at("reduced_chi2").as_number();
+        md << "\n"
+           << (std::string(which) == "errors_phi" ? "phi" : "mu")
+           << " fit: chi2/dof = " << num(chi, 3) << " (" << num(em.at("dof").as_number(), 3)
+           << " dof)"
+           << (em.at("errors_scaled_by_sqrt_chi2_dof").as_bool()
+                   ? ", statistical errors multiplied by sqrt(chi2/dof) = " + num(std::sqrt(chi), 3)
+                   : ", errors not scaled");
+        if (em.at("degenerate").as_bool())
+          md << "; **degenerate**: " << em.at("degenerate_reason").as_string();
+        md << ".\n";
+      }
       md << "\n";
     }
   } else {
@@ -354,59 +459,94 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
     const auto& ex = result.at("extrapolated");
     md << "## N -> infinity\n\n";
     if (ex.contains("skipped")) {
-      md << "Not extrapolated: " << ex.at("skipped").as_string() << "\n\n";
+      md << "Not extrapolated: " << ex.at("skipped").as_string()
+         << " The per-N values above, beside the seed's law at the same N, are the results; "
+            "they are not N -> infinity values.\n\n";
     } else {
       std::vector<std::vector<std::string>> rows;
+      int resolved = 0;
       for (const char* p : kParameters) {
         if (!ex.contains(p))
           continue;
-        double v = 0.0, e = 0.0;
         const auto& pe = ex.at(p);
-        const std::string status = pe.contains("status") ? pe.at("status").as_string() : "";
-        if (measured(pe, "inf", v, e))
-          rows.push_back({p, pm(v, e), num(seed_value(p, 0.0), 4),
-                          sigma_text(v, e, seed_value(p, 0.0)), status});
-        else
-          rows.push_back({p, "-", num(seed_value(p, 0.0), 4), "n/a", status});
+        const bool ok = pe.contains("resolved") && pe.at("resolved").as_bool();
+        const std::string why = pe.contains("resolution") ? pe.at("resolution").as_string() : "";
+        double v = 0.0, e = 0.0;
+        if (ok && measured(pe, "inf", v, e)) {
+          ++resolved;
+          rows.push_back(
+              {p, pm(v, e), num(seed_value(p, 0.0), 4), sigma_text(v, e, seed_value(p, 0.0)), why});
+        } else {
+          rows.push_back({p, "-", num(seed_value(p, 0.0), 4), "-", why});
+        }
       }
-      md << markdown_table({"parameter", "jamflow O_inf", "seed O_inf", "difference", "fit"}, rows);
-      double v = 0.0, e = 0.0;
-      if (result.contains("nu")) {
-        const auto& nu = result.at("nu");
-        if (measured(nu, "from_phi", v, e))
-          md << "\nnu from phi: " << pm(v, e) << " (seed 0.153, " << sigma_text(v, e, 0.153) << ")";
-        if (measured(nu, "from_mu", v, e))
-          md << "; nu from mu: " << pm(v, e) << " (seed 0.184, " << sigma_text(v, e, 0.184) << ")";
-        md << "\n\n";
-      }
+      md << "An N -> infinity value is given only where the extrapolation O(N) = O_inf + A_O "
+            "N^-alpha_O is resolved: a power-law fit over at least 4 sizes whose A_O differs from "
+            "0 by more than 2 sigma. "
+         << resolved << " of " << rows.size()
+         << " parameters are; elsewhere the per-N values above, beside the seed's law at the "
+            "same N, are the results.\n\n"
+         << markdown_table({"parameter", "jamflow O_inf", "seed O_inf", "difference", "resolution"},
+                           rows);
     }
+  }
+  if (result.is_object() && result.contains("nu")) {
+    const auto& nu = result.at("nu");
+    double v = 0.0, e = 0.0;
+    md << "\nnu = b / (alpha_O d): ";
+    bool any = false;
+    if (measured(nu, "from_phi", v, e)) {
+      md << "from phi " << pm(v, e) << " (seed 0.153, " << sigma_text(v, e, 0.153) << ")";
+      any = true;
+    }
+    if (measured(nu, "from_mu", v, e)) {
+      md << (any ? "; " : "") << "from mu " << pm(v, e) << " (seed 0.184, "
+         << sigma_text(v, e, 0.184) << ")";
+      any = true;
+    }
+    if (!any)
+      md << "not determined (it needs a resolved extrapolation of phi_J or mu_J).";
+    md << "\n\n";
   }
   if (result.is_object() && result.contains("viscosity")) {
     const auto& vis = result.at("viscosity");
     double v = 0.0, e = 0.0;
     md << "## Viscosity divergence (Fig. 7)\n\n";
-    if (measured(vis, "effective_exponent", v, e)) {
+    md << "The law eta/eta_0 = mu_J [C_phi/(phi_J - phi)]^(1/b_phi) + C_mu [C_phi/(phi_J - "
+          "phi)]^((1 - b_mu)/b_phi) with the parameters of "
+       << vis.at("source").as_string() << ".\n";
+    if (measured(vis, "effective_exponent", v, e))
       md << "Effective exponent beta = -d ln eta / d ln(phi_J - phi) over the window: " << pm(v, e)
-         << "; the seed's effective range is [1.67, 2.55] ("
-         << (v + 2 * e >= 1.67 && v - 2 * e <= 2.55 ? "inside within 2 sigma" : "outside")
-         << ").\n";
+         << ".\n";
+    if (vis.contains("beta_interval")) {
+      const auto& bi = vis.at("beta_interval");
+      md << "The trade-off interval [(1 - b_mu)/b_phi, 1/b_phi] of these parameters: ["
+         << num(bi.at(0).as_number(), 3) << ", " << num(bi.at(1).as_number(), 3)
+         << "] (the seed's: [1.67, 2.55]).\n";
     }
     if (measured(vis, "exponent_1", v, e))
       md << "Asymptotic exponent 1/b_phi = " << pm(v, e) << " (seed 2.55, "
          << sigma_text(v, e, 2.55) << ").\n";
-  }
-  // Decades of viscosity covered by the points (eta/eta_0 = mu / J).
-  double eta_min = 1e300, eta_max = 0.0;
-  for (std::size_t r = 0; r < table.rows.size(); ++r) {
-    const double eta = table.number(r, "mu") / table.number(r, "J");
-    if (std::isfinite(eta) && eta > 0.0) {
-      eta_min = std::min(eta_min, eta);
-      eta_max = std::max(eta_max, eta);
+    if (result.contains("sizes")) {
+      for (const auto& [n, fit] : result.at("sizes").members()) {
+        if (fit.contains("degenerate") && fit.at("degenerate").as_bool() &&
+            vis.at("source").as_string() == "N = " + n)
+          md << "The N = " << n
+             << " fits are flagged degenerate (above): this law inherits their uncertainty.\n";
+      }
     }
   }
-  if (eta_max > 0.0)
-    md << "\nThe points cover eta/eta_0 = mu/J from " << num(eta_min, 3) << " to "
-       << num(eta_max, 3) << ": " << num(std::log10(eta_max / eta_min), 3) << " decades.\n";
+  if (result.is_object() && result.contains("sizes")) {
+    for (const auto& [n, fit] : result.at("sizes").members()) {
+      if (!fit.contains("envelope_eta"))
+        continue;
+      const auto& ee = fit.at("envelope_eta");
+      md << "\nN = " << n << ": the P -> 0 envelope reaches eta/eta_0 = mu/J from "
+         << num(ee.at("min").as_number(), 3) << " to " << num(ee.at("max").as_number(), 3) << ", "
+         << num(ee.at("decades").as_number(), 3) << " decades (the seed: about 5).";
+    }
+    md << "\n";
+  }
   if (result.is_object() && result.contains("finite_size_collapse")) {
     const auto& fc = result.at("finite_size_collapse");
     md << "\n## Finite-size collapse (Fig. 6)\n\n";

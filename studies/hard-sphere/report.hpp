@@ -20,6 +20,10 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
 // analyze_and_report. Returns the exit status (that of the engine when it stopped early).
 int run_grid_study(const std::string& study, const GridPreset& grid, const StudyOptions& options);
 
+// The sweep and table already in an output folder (OUT/sweep.toml, OUT/table.csv), for
+// --report-only. Throws ConfigError when either is missing.
+SweepStudy existing_sweep(const std::string& out_dir);
+
 // The seed's value of a Table 2 parameter at size N from its size law
 // O(N) = O_inf + A_O N^-alpha_O (SPEC §5); N <= 0 gives O_inf.
 double seed_value(const std::string& parameter, double n);

@@ -106,23 +106,32 @@ std::string table2_section(const fs::path& analysis) {
        << " (finite-size/report.md says why).\n";
     return md.str();
   }
+  // Only a resolved extrapolation (analysis/README.md: a power law whose amplitude differs from
+  // 0 by more than 2 sigma) is an N -> infinity value beside the seed's; the rest is named with
+  // the reason and no value.
   std::vector<std::vector<std::string>> rows;
+  int resolved = 0;
   for (const Seed& s : seeds) {
     if (!ex.contains(s.name))
       continue;
     const auto& e = ex.at(s.name);
-    const std::string status = e.contains("status") ? e.at("status").as_string() : "";
-    if (e.contains("inf") && e.at("inf").contains("value")) {
+    const bool ok = e.contains("resolved") && e.at("resolved").as_bool();
+    const std::string why = e.contains("resolution") ? e.at("resolution").as_string() : "";
+    if (ok && e.contains("inf") && e.at("inf").contains("value")) {
+      ++resolved;
       const double v = e.at("inf").at("value").as_number(),
                    err = e.at("inf").at("error").as_number();
       char z[64];
       std::snprintf(z, sizeof z, "%+.1f sigma", (v - s.inf) / err);
-      rows.push_back({s.name, pm(v, err), num(s.inf, 4), err > 0.0 ? z : "n/a", status});
+      rows.push_back({s.name, pm(v, err), num(s.inf, 4), err > 0.0 ? z : "n/a", why});
     } else {
-      rows.push_back({s.name, "-", num(s.inf, 4), "n/a", status});
+      rows.push_back({s.name, "-", num(s.inf, 4), "-", why});
     }
   }
-  md << markdown_table({"parameter", "jamflow", "seed", "difference", "fit"}, rows);
+  md << resolved << " of " << rows.size()
+     << " parameters have a resolved N -> infinity extrapolation; for the others the "
+        "finite-size report gives the per-N fits beside the seed's law at the same N.\n\n";
+  md << markdown_table({"parameter", "jamflow", "seed", "difference", "resolution"}, rows);
   return md.str();
 }
 
