@@ -169,6 +169,19 @@ PStar find_p_star(const std::vector<ScanValue>& points, const ScanValue& ref, do
   }
   if (!out.reached)
     out.p_star = kNaN;
+  if (out.smallest >= 0 && ref.usable) {
+    for (std::size_t k = 0; k < m; ++k) {
+      const ScanValue& p = points[k];
+      if (p.usable || !(p.pressure < points[std::size_t(out.smallest)].pressure) ||
+          !std::isfinite(p.mu) || !std::isfinite(p.phi))
+        continue;
+      ++out.left_out_below;
+      out.left_out_below_agrees =
+          out.left_out_below_agrees ||
+          (std::abs(p.mu - ref.mu) <= sigmas * std::hypot(p.mu_err, ref.mu_err) &&
+           std::abs(p.phi - ref.phi) <= sigmas * std::hypot(p.phi_err, ref.phi_err));
+    }
+  }
   out.p_star_is_smallest = out.reached && in_chain == 1 && above;
   out.p_star_is_largest = out.reached && !above;
   return out;
@@ -1129,6 +1142,11 @@ int run_softness_preset(const SoftnessPreset& preset, const StudyOptions& option
           s = "undetermined (no usable reference)";
         else if (ps.smallest < 0)
           s = "undetermined (no usable run)";
+        else if (!ps.reached && ps.left_out_below > 0)
+          s = "undetermined (smallest usable P " +
+              num(ar.pscan.at(j)[std::size_t(ps.smallest)].pressure, 3) + " differs; " +
+              std::to_string(ps.left_out_below) + " smaller P left out by their verdicts" +
+              (ps.left_out_below_agrees ? ", one of which agrees on its own errors)" : ")");
         else if (!ps.reached)
           s = "**not reached** (smallest usable P " +
               num(ar.pscan.at(j)[std::size_t(ps.smallest)].pressure, 3) + " differs)";
@@ -1242,7 +1260,8 @@ int run_softness_preset(const SoftnessPreset& preset, const StudyOptions& option
     }
     std::string never;
     for (const AlphaResult& ar : results)
-      if (ar.p_star.count(j) && ar.p_star.at(j).smallest >= 0 && !ar.p_star.at(j).reached)
+      if (ar.p_star.count(j) && ar.p_star.at(j).smallest >= 0 && !ar.p_star.at(j).reached &&
+          ar.p_star.at(j).left_out_below == 0)
         never += (never.empty() ? "" : ", ") + short_num(ar.alpha);
     if (!never.empty())
       md += " Never reached the hard-sphere limit within the grid: α_r = " + never + ".";

@@ -82,11 +82,17 @@ struct PStar {
   double p_star = std::numeric_limits<double>::quiet_NaN();
   bool p_star_is_smallest = false;  // P* is the smallest usable P, and the next larger differs
   bool p_star_is_largest = false;   // no usable P above P*: the true P* may be larger
+  // Points below the smallest usable P that their verdicts left out (e.g. correlated): when the
+  // smallest usable P differs, "not reached" is then not established, since a left-out point
+  // closer to the limit may agree.
+  int left_out_below = 0;
+  bool left_out_below_agrees = false;  // one of them agrees, on its (uncertain) errors
 };
 
 // P* = the largest P such that every usable point at P' <= P agrees with the reference (mu and
 // phi within `sigmas` combined standard errors); undetermined (NaN) when the smallest usable
-// point differs: the scan never reached the reference's limit.
+// point differs: the scan never reached the reference's limit (unless points below it were left
+// out by their verdicts: then undetermined).
 PStar find_p_star(const std::vector<ScanValue>& points, const ScanValue& reference,
                   double sigmas = 2.0);
 

@@ -57,6 +57,18 @@ TEST(SoftnessStudy, PStarAgainstTheCommonReference) {
   const PStar b = find_p_star({sv(3e-3, 0.40, 0.578), sv(1e-3, 0.40, 0.590)}, ref);
   EXPECT_FALSE(b.reached);
   EXPECT_TRUE(std::isnan(b.p_star));
+  EXPECT_EQ(b.left_out_below, 0);
+  // ... unless a smaller P was left out by its verdicts (here one that agrees): then "not
+  // reached" is not established.
+  const PStar f = find_p_star(
+      {sv(3e-3, 0.40, 0.578), sv(1e-3, 0.40, 0.590), sv(1e-4, 0.401, 0.578, false)}, ref);
+  EXPECT_FALSE(f.reached);
+  EXPECT_EQ(f.left_out_below, 1);
+  EXPECT_TRUE(f.left_out_below_agrees);
+  const PStar g = find_p_star(
+      {sv(3e-3, 0.40, 0.578), sv(1e-3, 0.40, 0.590), sv(1e-4, 0.40, 0.600, false)}, ref);
+  EXPECT_EQ(g.left_out_below, 1);
+  EXPECT_FALSE(g.left_out_below_agrees);
   // An unusable point is not compared, and does not break the chain.
   const PStar c =
       find_p_star({sv(1e-4, 0.2, 0.7, false), sv(1e-3, 0.40, 0.578), sv(1e-2, 0.30, 0.578)}, ref);
