@@ -225,4 +225,33 @@ ErrorModel power_law_error_model(const FitData& data, const PowerLawForm& form,
   return m;
 }
 
+Scatter scatter_of(const std::vector<double>& x, const std::vector<double>& e) {
+  Scatter out;
+  double sw = 0.0, swx = 0.0;
+  int n = 0;
+  for (std::size_t k = 0; k < x.size() && k < e.size(); ++k) {
+    if (!std::isfinite(x[k]) || !(e[k] > 0.0) || !std::isfinite(e[k]))
+      continue;
+    sw += 1.0 / (e[k] * e[k]);
+    swx += x[k] / (e[k] * e[k]);
+    ++n;
+  }
+  if (n < 2) {
+    out.mean = n == 1 ? swx / sw : std::numeric_limits<double>::quiet_NaN();
+    out.reduced_chi2 = std::numeric_limits<double>::quiet_NaN();
+    return out;
+  }
+  out.mean = swx / sw;
+  double chi2 = 0.0;
+  for (std::size_t k = 0; k < x.size() && k < e.size(); ++k) {
+    if (!std::isfinite(x[k]) || !(e[k] > 0.0) || !std::isfinite(e[k]))
+      continue;
+    chi2 += (x[k] - out.mean) * (x[k] - out.mean) / (e[k] * e[k]);
+  }
+  out.dof = n - 1;
+  out.reduced_chi2 = chi2 / out.dof;
+  out.error_scale = std::sqrt(std::max(1.0, out.reduced_chi2));
+  return out;
+}
+
 }  // namespace jamflow::analysis

@@ -78,6 +78,18 @@ ErrorModel power_law_error_model(const FitData& data, const PowerLawForm& form,
                                  const std::vector<ParameterBound>& bounds,
                                  const std::string& x_name);
 
+// Independent estimates x_k +- e_k of one quantity: their weighted mean, chi2/dof about it
+// (n - 1 degrees of freedom) and sqrt(max(1, chi2/dof)), the factor by which the errors
+// understate the scatter (the same rule as a fit's). Fewer than 2 finite estimates: NaN chi2,
+// scale 1.
+struct Scatter {
+  double mean = 0.0;
+  double reduced_chi2 = 0.0;
+  int dof = 0;
+  double error_scale = 1.0;
+};
+Scatter scatter_of(const std::vector<double>& x, const std::vector<double>& e);
+
 // The statistical part only (and the degeneracy), for fits whose systematics are computed by
 // their caller.
 ErrorModel statistical_error_model(const FitResult& fit, const std::vector<ParameterBound>& bounds);

@@ -123,5 +123,23 @@ TEST(ErrorModel, DropExtremeXDropsEveryPointAtTheEdge) {
   EXPECT_EQ(drop_extreme_x(d, false).size(), 3u);
 }
 
+// Estimates that scatter twice their errors: chi2/dof = 4 (n - 1 dof), errors scaled by 2;
+// estimates within their errors keep them.
+TEST(ErrorModel, ScatterOfEstimatesScalesErrorsThatUnderstateIt) {
+  const Scatter wide = scatter_of({-2.0, 2.0}, {1.0, 1.0});
+  EXPECT_DOUBLE_EQ(wide.mean, 0.0);
+  EXPECT_EQ(wide.dof, 1);
+  EXPECT_DOUBLE_EQ(wide.reduced_chi2, 8.0);
+  EXPECT_DOUBLE_EQ(wide.error_scale, std::sqrt(8.0));
+  const Scatter four = scatter_of({-1.0, 1.0, -1.0, 1.0, -1.0, 1.0},
+                                  std::vector<double>(6, 0.5 * std::sqrt(6.0 / 5.0)));
+  EXPECT_NEAR(four.reduced_chi2, 4.0, 1e-12);
+  EXPECT_NEAR(four.error_scale, 2.0, 1e-12);
+  const Scatter narrow = scatter_of({0.9, 1.1}, {1.0, 1.0});
+  EXPECT_DOUBLE_EQ(narrow.error_scale, 1.0);
+  EXPECT_EQ(scatter_of({1.0}, {0.1}).dof, 0);
+  EXPECT_DOUBLE_EQ(scatter_of({1.0}, {0.1}).error_scale, 1.0);
+}
+
 }  // namespace
 }  // namespace jamflow::analysis
