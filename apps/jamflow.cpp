@@ -108,6 +108,15 @@ int run_command(const std::vector<std::string>& args) {
       scene = jamflow::Scene::parse(opened->attr_string("/", "scene"), from);
       status = opened->attr_string("/", "status");
       output.continue_from = jamflow::read_checkpoint(*opened);
+      jamflow::check_checkpoint_matches(*opened, *output.continue_from,
+                                        extend ? "--extend" : "--resume", from);
+      // The summaries of the finished replicas, which a continuation keeps where it does not
+      // extend them (/checkpoint holds no summary).
+      opened.reset();
+      const jamflow::RunFile file = jamflow::read_run_file(from, false);
+      for (std::size_t k = 0; k < output.continue_from->size() && k < file.replicas.size(); ++k)
+        if ((*output.continue_from)[k].status == "complete")
+          (*output.continue_from)[k].summary = file.replicas[k].summary;
     } catch (const jamflow::IoError& e) {
       throw jamflow::ConfigError(std::string(extend ? "--extend" : "--resume") + " '" + from +
                                  "': " + e.what() + "; allowed a jamflow run file");
@@ -133,6 +142,10 @@ int run_command(const std::vector<std::string>& args) {
   if (replicas > 0)
     scene.set("run.replicas=" + std::to_string(replicas));
   const jamflow::RunSpec spec = jamflow::parse_run_spec(scene);
+  if (output.continue_from)
+    jamflow::check_continuation(spec, *output.continue_from,
+                                output.extend ? "--extend" : "--resume",
+                                output.extend ? extend_path : resume_path);
   if (output.extend) {
     const auto& first = output.continue_from->front().series.samples;
     const double done = first.empty() ? 0.0 : first.back().time;

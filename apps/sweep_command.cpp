@@ -1,6 +1,7 @@
 #include "apps/sweep_command.hpp"
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 
@@ -21,12 +22,16 @@ void print_dry_run(const sweep::Plan& plan) {
               plan.points.size(), static_cast<long long>(plan.replicas), tasks.size(),
               plan.out_dir.c_str());
   std::printf("  %-48s %8s %12s  %s\n", "point", "N", "CPU s", "state");
+  // Each point's replicas, found once (not by a pass over all tasks per point).
+  std::vector<std::vector<const sweep::Task*>> of_point(plan.points.size());
+  for (const auto& t : tasks)
+    of_point[t.point].push_back(&t);
   for (const auto& p : plan.points) {
+    auto& ts = of_point[p.index];
+    std::sort(ts.begin(), ts.end(), [](auto a, auto b) { return a->replica < b->replica; });
     std::string states;
-    for (const auto& t : tasks) {
-      if (t.point == p.index)
-        states += std::string(states.empty() ? "" : ",") + sweep::state_name(sweep::probe(plan, t));
-    }
+    for (const sweep::Task* t : ts)
+      states += std::string(states.empty() ? "" : ",") + sweep::state_name(sweep::probe(plan, *t));
     std::printf("  %-48s %8lld %12.3g  %s\n", p.name.c_str(), static_cast<long long>(p.n), p.cost,
                 states.c_str());
   }

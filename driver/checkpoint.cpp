@@ -3,9 +3,16 @@
 // from exactly the bits the interrupted one held.
 #include "driver/checkpoint.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
 #include <string>
 
+#include "lib/config.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 
@@ -133,9 +140,39 @@ NeighbourList::Snapshot read_list(const H5Reader& r, const std::string& g) {
 
 }  // namespace
 
-void write_checkpoint(H5Writer& w, const std::vector<ReplicaResult>& replicas) {
+std::string checkpoint_digest(const std::string& scene_text, const std::string& version,
+                              const std::vector<ReplicaResult>& replicas) {
+  Scene scene = Scene::parse(scene_text, "scene");
+  for (const char* key : {"run.threads", "output.file", "run.t_av", "run.target_error",
+                          "run.max_time", "output.checkpoint_every"})
+    scene.set_value(key, toml::value<std::string>("*"));
+  std::string text = scene.text() + "\nversion " + version + "\n";
+  auto bits = [](double v) {
+    std::uint64_t b;
+    std::memcpy(&b, &v, sizeof b);
+    return std::to_string(b);
+  };
+  for (const auto& r : replicas) {
+    const State& s = r.end.state;
+    text += std::to_string(s.size()) + " " + std::to_string(r.series.samples.size()) + " " +
+            bits(s.time) + " " + bits(s.box.lx) + " " + bits(s.box.ly) + " " + bits(s.box.lz) +
+            "\n";
+  }
+  std::uint64_t h = 14695981039346656037ull;
+  for (const unsigned char c : text) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+  return hex;
+}
+
+void write_checkpoint(H5Writer& w, const RunSpec& spec,
+                      const std::vector<ReplicaResult>& replicas) {
   w.group("/checkpoint");
   w.attr("/checkpoint", "format", kCheckpointFormat);
+  w.attr("/checkpoint", "digest", checkpoint_digest(spec.scene_text, JAMFLOW_VERSION, replicas));
   w.attr("/checkpoint", "replicas", static_cast<std::int64_t>(replicas.size()));
   for (std::size_t k = 0; k < replicas.size(); ++k) {
     const ReplicaResult& res = replicas[k];
@@ -308,6 +345,113 @@ RunFile read_run_file(const std::string& path, bool everything) {
     }
   }
   return f;
+}
+
+void check_checkpoint_matches(const H5Reader& r, const std::vector<ReplicaResult>& replicas,
+                              const std::string& option, const std::string& file) {
+  const std::string scene_text = r.attr_string("/", "scene");
+  const std::string allowed =
+      "; allowed the file as the run wrote it (" + option + " takes its scene; " +
+      (option == "--resume" ? "only --set run.threads=N may change it)"
+                            : "--set may change only run.t_av, run.target_error, run.max_time, "
+                              "run.threads and output.checkpoint_every)");
+  if (r.has_attr("/checkpoint", "digest")) {
+    const std::string version = r.has_attr("/", "version") ? r.attr_string("/", "version") : "";
+    if (checkpoint_digest(scene_text, version, replicas) != r.attr_string("/checkpoint", "digest"))
+      throw ConfigError(option + " '" + file +
+                        "': its scene or version attribute does not match its checkpoint "
+                        "(digest)" +
+                        allowed);
+    return;
+  }
+  // Written before the digest: what the state itself tells.
+  const Scene scene = Scene::parse(scene_text, file);
+  const toml::table* sys = scene.table("system");
+  const toml::node* n = sys ? sys->get("N") : nullptr;
+  const bool from_init = sys && sys->get("init");
+  for (const auto& rep : replicas) {
+    if (n && !from_init && n->is_integer() &&
+        static_cast<std::int64_t>(rep.end.state.size()) != n->as_integer()->get())
+      throw ConfigError(option + " '" + file + "': its scene says N = " +
+                        std::to_string(n->as_integer()->get()) + ", its checkpoint holds " +
+                        std::to_string(rep.end.state.size()) + " particles" + allowed);
+    const toml::table* ens = scene.table("ensemble");
+    const toml::node* kind = ens ? ens->get("kind") : nullptr;
+    if (kind && kind->is_string() && kind->as_string()->get() == "constant_volume") {
+      const auto& s = rep.series.samples;
+      for (const auto& sample : s) {
+        if (sample.volume != s.front().volume)
+          throw ConfigError(option + " '" + file +
+                            "': its scene says constant_volume, but the cell volume of its "
+                            "checkpoint changes (a constant-pressure run)" +
+                            allowed);
+      }
+    }
+  }
+}
+
+bool replica_finished(const RunSpec& spec, const ReplicaResult& r) {
+  const auto k_max =
+      static_cast<std::size_t>(std::floor((spec.t_eq + spec.t_av) / spec.sample_every + 1e-9));
+  return r.status == "complete" &&
+         (spec.auto_eq || spec.auto_av || r.series.samples.size() > k_max);
+}
+
+void check_continuation(const RunSpec& spec, const std::vector<ReplicaResult>& replicas,
+                        const std::string& option, const std::string& file) {
+  if (replicas.empty() || static_cast<std::int64_t>(replicas.size()) < spec.replicas)
+    return;  // a replica still to start
+  for (const auto& r : replicas)
+    if (!replica_finished(spec, r))
+      return;
+  if (option == "--resume")
+    throw ConfigError("--resume '" + file +
+                      "': the run is finished (status complete); allowed a stopped run's "
+                      "checkpoint (a finished run is lengthened with --extend)");
+  if (spec.auto_eq || spec.auto_av)
+    throw ConfigError("--extend '" + file +
+                      "': the run's window was found from its data (t_eq or t_av = \"auto\"); "
+                      "allowed --set run.t_av=T with a fixed t_eq, at least one sample longer");
+  const auto& s = replicas.front().series.samples;
+  const double reached = s.empty() ? 0.0 : s.back().time;
+  throw ConfigError("--extend '" + file + "': [run] t_eq + t_av = " + fmt(spec.t_eq + spec.t_av) +
+                    " does not lengthen the run, which has reached t = " + fmt(reached) +
+                    "; allowed --set run.t_av=T with t_eq + T at least one sample_every (" +
+                    fmt(spec.sample_every) + ") beyond that");
+}
+
+std::string write_run_file_elsewhere(const RunSpec& spec,
+                                     const std::vector<ReplicaResult>& replicas, std::string* why) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path tmp = fs::temp_directory_path(ec);
+  const fs::path out = fs::absolute(spec.file, ec).parent_path();
+  if (tmp.empty() || fs::equivalent(tmp, out, ec)) {
+    if (why)
+      *why = "the temporary folder is the output's own";
+    return "";
+  }
+  const std::string path =
+      (tmp / (fs::path(spec.file).stem().string() + "." + std::to_string(::getpid()) + ".h5"))
+          .string();
+  try {
+    write_run_file(spec, replicas, path);
+    return path;
+  } catch (const std::exception& e) {
+    if (why)
+      *why = e.what();
+    return "";
+  }
+}
+
+std::string kept_message(const std::string& file, const std::string& write_error,
+                         const std::string& kept_in) {
+  if (!kept_in.empty())
+    return write_error + "; the finished run is written to " + kept_in + " instead (" + file +
+           ".part holds only the last checkpoint before it)";
+  return write_error + "; it could not be written elsewhere either, and only " + file +
+         ".part is kept: the last checkpoint written before (continue it with --resume " + file +
+         ".part)";
 }
 
 }  // namespace jamflow

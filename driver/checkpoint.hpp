@@ -29,8 +29,23 @@ class H5Reader;
 
 inline constexpr std::int64_t kCheckpointFormat = 1;
 
-// Writes the replicas' checkpoints (finished and running alike) under /checkpoint.
-void write_checkpoint(H5Writer& w, const std::vector<ReplicaResult>& replicas);
+// Writes the replicas' checkpoints (finished and running alike) under /checkpoint, with the
+// attribute "digest" (checkpoint_digest) of the scene, the version and the state.
+void write_checkpoint(H5Writer& w, const RunSpec& spec, const std::vector<ReplicaResult>& replicas);
+
+// A digest (64-bit FNV-1a, hex) of what a continued run must not change: the scene text as
+// parsed, but for the keys a continuation may set (run.threads, output.file, and --extend's
+// run.t_av, run.target_error, run.max_time, output.checkpoint_every), the version that wrote
+// it, and the checkpointed replicas' sizes, sample counts, times and cells.
+std::string checkpoint_digest(const std::string& scene_text, const std::string& version,
+                              const std::vector<ReplicaResult>& replicas);
+
+// --resume and --extend (`option`) of `file`: a ConfigError, one line, when the root attributes
+// scene or version no longer match the checkpoint (its digest; a file written before digests
+// were stored is checked as far as its state tells: the particle count, and a cell volume that
+// moves only at constant pressure).
+void check_checkpoint_matches(const H5Reader& r, const std::vector<ReplicaResult>& replicas,
+                              const std::string& option, const std::string& file);
 
 // Reads them back; an IoError names what is missing or inconsistent.
 std::vector<ReplicaResult> read_checkpoint(const H5Reader& r);
@@ -48,5 +63,28 @@ struct RunFile {
   std::vector<ReplicaResult> replicas;
 };
 RunFile read_run_file(const std::string& path, bool everything = true);
+
+// Whether a replica read from a checkpoint is finished for `spec`: complete, and either its
+// length was found from its data (t_eq or t_av "auto") or it holds every sample of t_eq + t_av.
+bool replica_finished(const RunSpec& spec, const ReplicaResult& replica);
+
+// --resume and --extend (`option`) of `file`: a ConfigError, one line, when no replica would be
+// continued, so that a finished file is never rewritten with nothing new (the replicas of
+// `replicas` not continued keep the summaries they hold).
+void check_continuation(const RunSpec& spec, const std::vector<ReplicaResult>& replicas,
+                        const std::string& option, const std::string& file);
+
+// The final run file could not be written at spec.file (a full disk, a lost mount): writes the
+// finished run to the temporary folder instead ($TMPDIR, else /tmp) as <stem>.<pid>.h5, so that
+// what is in memory is not lost. Returns that path, or "" when that failed too (`why` gets the
+// reason). Not tried when the temporary folder is the output's own folder.
+std::string write_run_file_elsewhere(const RunSpec& spec,
+                                     const std::vector<ReplicaResult>& replicas,
+                                     std::string* why = nullptr);
+
+// The message for a final write that failed: where the finished run is, or exactly what is
+// kept (OUT.part: the last checkpoint written before).
+std::string kept_message(const std::string& file, const std::string& write_error,
+                         const std::string& kept_in);
 
 }  // namespace jamflow

@@ -15,6 +15,7 @@
 #include <functional>
 #include <thread>
 
+#include "driver/checkpoint.hpp"
 #include "driver/run_detail.hpp"
 #include "driver/simulation.hpp"
 #include "lib/cpu_clock.hpp"
@@ -487,8 +488,6 @@ RunOutcome run_replicas(const RunSpec& spec, const RunOptions& options,
     throw ConfigError("[run] replicas = " + std::to_string(count) + " but the checkpoint holds " +
                       std::to_string(results.size()) + "; allowed at least that many");
   }
-  const auto k_max =
-      static_cast<std::size_t>(std::floor((spec.t_eq + spec.t_av) / spec.sample_every + 1e-9));
   // The .part file: every replica so far, the current one as it stands.
   auto write_part = [&](std::size_t k, const ReplicaResult& current) {
     if (!output.write)
@@ -505,14 +504,22 @@ RunOutcome run_replicas(const RunSpec& spec, const RunOptions& options,
       throw ConfigError("replica " + std::to_string(k) + " of this run " + from->status +
                         "; a failed run cannot be continued");
     }
-    if (from && from->status == "complete" &&
-        (spec.auto_eq || spec.auto_av || from->series.samples.size() > k_max))
+    if (from && replica_finished(spec, *from))
       continue;  // done
     RunOptions o = options;
     o.label = stem + replica_suffix(k, count);
     o.checkpoint_every = spec.checkpoint_every;
     if (output.write)
-      o.checkpoint = [&, k](const ReplicaResult& current) { write_part(k, current); };
+      o.checkpoint = [&, k](const ReplicaResult& current) {
+        // A checkpoint that cannot be written (a full disk) does not end the run: the previous
+        // one stays in OUT.part, and the final write comes at the end.
+        try {
+          write_part(k, current);
+        } catch (const IoError& e) {
+          std::fprintf(stderr, "jamflow: warning: checkpoint not written: %s; the run goes on\n",
+                       e.what());
+        }
+      };
     ReplicaResult r = run_replica(spec, spec.seed + k, o, from);
     if (k < results.size())
       results[k] = std::move(r);
@@ -520,8 +527,13 @@ RunOutcome run_replicas(const RunSpec& spec, const RunOptions& options,
       results.push_back(std::move(r));
     const ReplicaResult& last = results[k];
     const bool ok = last.status == "complete";
-    if (output.write)
-      write_xyz_file(o.label + (ok ? ".final.xyz" : ".last.xyz"), last.final_state);
+    if (output.write) {
+      try {
+        write_xyz_file(o.label + (ok ? ".final.xyz" : ".last.xyz"), last.final_state);
+      } catch (const IoError& e) {  // the run file holds the same state under /final
+        std::fprintf(stderr, "jamflow: warning: %s\n", e.what());
+      }
+    }
     if (stopped_by_budget(last.status)) {
       // Finished without a summary: the file is final, the next replica goes on.
       if (output.write)
@@ -552,6 +564,10 @@ RunOutcome run_replicas(const RunSpec& spec, const RunOptions& options,
     std::filesystem::remove(spec.file + ".part", ec);
   } catch (const std::exception& e) {
     outcome.write_error = e.what();
+    outcome.kept_in = write_run_file_elsewhere(spec, results);
+    // A final configuration beside no finished run file would look like a finished run.
+    for (std::size_t k = 0; k < results.size(); ++k)
+      std::remove((stem + replica_suffix(k, count) + ".final.xyz").c_str());
   }
   return outcome;
 }
@@ -569,8 +585,8 @@ int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOp
     std::printf("jamflow run: stopped by [run] max_force_evaluations (no summary) -> %s\n",
                 spec.file.c_str());
   if (!outcome.write_error.empty()) {
-    std::fprintf(stderr, "jamflow: error: %s; the data is kept in %s.part\n",
-                 outcome.write_error.c_str(), spec.file.c_str());
+    std::fprintf(stderr, "jamflow: error: %s\n",
+                 kept_message(spec.file, outcome.write_error, outcome.kept_in).c_str());
     return 1;
   }
   if (failed_verdict && output.strict) {

@@ -240,7 +240,9 @@ struct RunOutcome {
   // 0 when every replica is complete, 1 when one failed, 128 + the signal when one was stopped
   // by a signal, 130 when interrupted by `stop`.
   int code = 0;
-  std::string write_error;  // the final file could not be written (the data is in OUT.part)
+  // The final file could not be written: why, and where the finished run was written instead
+  // (empty: nowhere; OUT.part holds the last checkpoint). See kept_message().
+  std::string write_error, kept_in;
 };
 
 // Runs all replicas of a spec (or continues them) and writes the output (with output.write),

@@ -172,7 +172,7 @@ void write_run_layout(H5Writer& w, const RunSpec& spec,
       write_replica(w, spec, replicas[k], "/replicas/" + std::to_string(k));
     }
   }
-  write_checkpoint(w, replicas);
+  write_checkpoint(w, spec, replicas);
 }
 
 bool write_run_file(const RunSpec& spec, const std::vector<ReplicaResult>& replicas,

@@ -15,16 +15,28 @@
 
 namespace jamflow {
 
-namespace {
-
-// HDF5 prints its whole error stack to stderr by default; users should see only our one-line
-// errors. The setting is per thread in thread-safe builds, hence thread_local.
-void silence_hdf5() {
+void hdf5_setup() {
+  // No exit-time cleanup by libhdf5: every file is closed by its owner, and a file HDF5 could
+  // not close (its last writes failed: a full disk, a file-size limit) would make that cleanup
+  // crash (H5F__close_cb). Only possible before the library's first use; harmless after.
+  static const bool once = [] {
+    H5dont_atexit();
+    return true;
+  }();
+  (void)once;
+  // HDF5 prints its whole error stack to stderr by default; users should see only our one-line
+  // errors. The setting is per thread in thread-safe builds, hence thread_local.
   thread_local const bool silenced = [] {
     H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
     return true;
   }();
   (void)silenced;
+}
+
+namespace {
+
+void silence_hdf5() {
+  hdf5_setup();
 }
 
 // The most specific message on HDF5's error stack (e.g. "unable to open file: ... errno = 2,
@@ -159,6 +171,20 @@ herr_t collect_attr(hid_t, const char* name, const H5A_info_t*, void* data) noex
   }
 }
 
+// Lets go of a file that is to be thrown away, even one HDF5 could not write to (a full disk).
+// H5Fclose flushes what HDF5 still holds; when that fails the identifier stays registered (a
+// second H5Fclose on it crashes, and so would libhdf5's exit cleanup, hence hdf5_setup()). So
+// the temporary is first cut to nothing, which frees its blocks for the few bytes of metadata
+// the close still writes (on a full disk that lets the close succeed; beyond a file-size limit
+// it still fails, and the file is left to the process's end).
+void close_discarded(hid_t file, const std::string& part) {
+  if (file < 0)
+    return;
+  (void)::truncate(part.c_str(), 0);
+  if (H5Fclose(file) < 0)
+    H5Eclear2(H5E_DEFAULT);
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -175,8 +201,12 @@ H5Writer::H5Writer(std::string path, std::string temp_suffix)
 }
 
 H5Writer::~H5Writer() {
-  if (file_ >= 0)
-    H5Fclose(file_);
+  if (file_ >= 0) {
+    if (done_)
+      H5Fclose(file_);
+    else
+      close_discarded(file_, part_path());
+  }
   if (!done_)
     std::remove(part_path().c_str());
 }
@@ -337,16 +367,17 @@ void H5Writer::commit() {
   silence_hdf5();
   if (done_ || file_ < 0)
     throw IoError(part_path() + ": commit: file already closed");
-  const hid_t file = std::exchange(file_, -1);
-  const bool flushed = H5Fflush(file, H5F_SCOPE_GLOBAL) >= 0;
-  std::string reason = flushed ? "" : hdf5_reason();
-  const bool closed = H5Fclose(file) >= 0;
-  if (!closed && reason.empty())
-    reason = hdf5_reason();
-  // An unflushed file is not trustworthy: leave done_ false so the destructor removes it.
-  if (!flushed || !closed)
-    throw IoError(part_path() + ": cannot close HDF5 file: " + reason);
   const std::string part = part_path();
+  const hid_t file = std::exchange(file_, -1);
+  // An unflushed file is not trustworthy: it is closed as discarded and, done_ being false,
+  // removed by the destructor.
+  if (H5Fflush(file, H5F_SCOPE_GLOBAL) < 0) {
+    const std::string reason = hdf5_reason();
+    close_discarded(file, part);
+    throw IoError(part + ": cannot close HDF5 file: " + reason);
+  }
+  if (H5Fclose(file) < 0)  // not to be closed again (close_discarded)
+    throw IoError(part + ": cannot close HDF5 file: " + hdf5_reason());
   // On disk before the rename, so that a crash cannot leave a renamed but empty file.
   if (const int fd = ::open(part.c_str(), O_RDONLY); fd >= 0) {
     ::fsync(fd);
@@ -375,9 +406,8 @@ void H5Writer::keep_partial(const std::string& status) {
     error = e.what();
   }
   const hid_t file = std::exchange(file_, -1);
-  if (H5Fclose(file) < 0 && error.empty()) {
+  if (H5Fclose(file) < 0 && error.empty())  // not to be closed again (close_discarded)
     error = part_path() + ": cannot close HDF5 file: " + hdf5_reason();
-  }
   if (!error.empty())
     throw IoError(error);
 }

@@ -12,6 +12,11 @@
 
 namespace jamflow {
 
+// Once per process before HDF5's first use (H5Writer and H5Reader call it): no automatic error
+// printing (our errors are one line) and no exit-time cleanup by libhdf5 (a file whose close
+// failed on a full disk would crash it).
+void hdf5_setup();
+
 class H5Writer {
  public:
   explicit H5Writer(std::string path, std::string temp_suffix = ".part");

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "lib/error.hpp"
+#include "lib/h5.hpp"
 
 #ifndef JAMFLOW_VERSION
 #define JAMFLOW_VERSION "unknown"
@@ -150,7 +151,7 @@ const char* const kElements[] = {"/particles/all/position", "/particles/all/box/
 H5mdTrajectory::H5mdTrajectory(const std::string& path, const State& state,
                                std::int64_t keep_frames)
     : path_(path), n_(std::int64_t(state.size())) {
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  hdf5_setup();
   if (keep_frames >= 0) {
     file_ = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
     if (file_ < 0)

@@ -30,6 +30,7 @@
 #include <vector>
 
 #include "analysis/analyze_cli.hpp"
+#include "driver/checkpoint.hpp"
 #include "driver/run.hpp"
 #include "driver/simulation.hpp"
 #include "lib/config.hpp"
@@ -408,7 +409,7 @@ RunResult run(py::handle scene_source, py::object out, bool force, bool progress
         status + (output.write ? "; the data is kept in " + spec.file + ".part" : std::string()));
   }
   if (!outcome.write_error.empty())
-    throw jamflow::IoError(outcome.write_error + "; the data is kept in " + spec.file + ".part");
+    throw jamflow::IoError(jamflow::kept_message(spec.file, outcome.write_error, outcome.kept_in));
   const auto& reps = outcome.replicas;
   RunResult result = replica_result(spec, reps.front());
   if (reps.size() > 1) {

@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -153,6 +154,7 @@ Coordinator::Coordinator(const Plan& plan, std::vector<std::size_t> share, int s
       ++failed_;
     } else {
       queue_.push_back(i);
+      queued_cost_ += tasks_[i].cost;
     }
     ++total_;
   }
@@ -161,7 +163,9 @@ Coordinator::Coordinator(const Plan& plan, std::vector<std::size_t> share, int s
 std::optional<std::size_t> Coordinator::take() {
   if (next_ >= queue_.size())
     return std::nullopt;
-  return queue_[next_++];
+  const std::size_t t = queue_[next_++];
+  queued_cost_ = next_ < queue_.size() ? std::max(0.0, queued_cost_ - tasks_[t].cost) : 0.0;
+  return t;
 }
 
 void Coordinator::started(std::size_t task) {
@@ -169,26 +173,33 @@ void Coordinator::started(std::size_t task) {
   resumed_[task] = state_[task] == TaskState::kCheckpointed;
   state_[task] = TaskState::kRunning;
   started_at_[task] = now_seconds();
-  ++running_;
+  if (first_start_ < 0.0)
+    first_start_ = started_at_[task];
+  running_.push_back(task);
+  journal(task, resumed_[task] ? "resumed" : "started", 0.0, "");
   if (!tty_)
     last_print_ = -1.0;
   tick();
 }
 
 void Coordinator::finished(std::size_t task, TaskState state, double wall, const std::string& why) {
-  if (state_[task] == TaskState::kRunning)
-    --running_;
+  const bool ran_here = state_[task] == TaskState::kRunning;
+  if (ran_here)
+    running_.erase(std::find(running_.begin(), running_.end(), task));
   state_[task] = state;
   why_[task] = why;
   if (state == TaskState::kDone) {
     ++done_;
-    if (!resumed_[task]) {
+    // Only a task run here from its start tells the rate (one finished elsewhere took no time
+    // here).
+    if (ran_here && !resumed_[task]) {
       done_cost_ += tasks_[task].cost;
       done_wall_ += wall;
     }
   } else if (state == TaskState::kFailed) {
     ++failed_;
   }
+  journal(task, state_name(state), wall, why);
   const Point& p = plan_.points[tasks_[task].point];
   if (!quiet_ && state != TaskState::kDone) {
     std::fprintf(stderr, "%ssweep: %s r%lld %s%s%s\n", tty_ ? "\r\033[K" : "", p.name.c_str(),
@@ -197,39 +208,42 @@ void Coordinator::finished(std::size_t task, TaskState state, double wall, const
   }
   last_print_ = -1.0;
   tick();
-  write_manifest();
+  ++events_since_manifest_;
+  maybe_write_manifest();
 }
 
 int Coordinator::remaining() const {
-  int n = 0;
-  for (std::size_t i = next_; i < queue_.size(); ++i)
-    ++n;
-  return n + running_;
+  return static_cast<int>(queue_.size() - next_ + running_.size());
 }
 
 std::string Coordinator::line() const {
-  const double elapsed = now_seconds() - t0_;
-  // ETA from the scheduled work: the tasks not started, plus what the running ones have left,
-  // at the rate (expected cost per worker-second) of the tasks finished so far.
+  const double now = now_seconds();
+  const double elapsed = now - t0_;
+  // ETA: the expected work left (the tasks not started, plus what the running ones have left
+  // at one worker's rate, measured on the tasks run here from their start) over the work done
+  // per second of this sweep's wall time since its first task started. The latter counts
+  // everything between the runs too (starting them, bookkeeping, idle slots), which a rate
+  // per worker-second alone would miss.
   double eta = NAN;
-  if (done_wall_ > 0.0 && done_cost_ > 0.0) {
+  if (done_wall_ > 0.0 && done_cost_ > 0.0 && first_start_ >= 0.0 && now > first_start_) {
     const double rate = done_cost_ / done_wall_;
-    double left = 0.0;
-    for (std::size_t i = next_; i < queue_.size(); ++i)
-      left += tasks_[queue_[i]].cost;
-    for (std::size_t i = 0; i < tasks_.size(); ++i) {
-      if (state_[i] == TaskState::kRunning)
-        left += std::max(0.0, tasks_[i].cost - rate * (now_seconds() - started_at_[i]));
+    double left = queued_cost_, done = done_cost_;
+    for (const std::size_t i : running_) {
+      const double progress = std::min(tasks_[i].cost, rate * (now - started_at_[i]));
+      left += tasks_[i].cost - progress;
+      if (!resumed_[i])
+        done += progress;
     }
-    eta = left / (rate * double(slots_));
+    const double throughput = done / (now - first_start_);
+    eta = left / std::min(throughput, rate * double(slots_));
   }
   const int waiting = static_cast<int>(queue_.size() - next_);
   char buf[512];
   std::snprintf(buf, sizeof buf,
-                "sweep %s: %d/%zu done%s, %d running, %d failed, %d waiting  elapsed %s  ETA %s",
+                "sweep %s: %d/%zu done%s, %zu running, %d failed, %d waiting  elapsed %s  ETA %s",
                 plan_.name.c_str(), done_ + skipped_, total_,
                 skipped_ > 0 ? (" (" + std::to_string(skipped_) + " from before)").c_str() : "",
-                running_, failed_, waiting, format_duration(elapsed).c_str(),
+                running_.size(), failed_, waiting, format_duration(elapsed).c_str(),
                 format_duration(eta).c_str());
   return buf;
 }
@@ -253,7 +267,61 @@ void Coordinator::final_line() {
   std::fprintf(stderr, "%s%s\n", tty_ ? "\r\033[K" : "", line().c_str());
 }
 
+void Coordinator::journal(std::size_t task, const char* event, double wall,
+                          const std::string& why) {
+  const std::time_t t = std::time(nullptr);
+  char when[64];
+  std::strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+  std::string line = std::string(when) + " " + plan_.points[tasks_[task].point].name + " r" +
+                     std::to_string(tasks_[task].replica) + " " + event;
+  if (wall > 0.0) {
+    char buf[48];
+    std::snprintf(buf, sizeof buf, " after %.3g s", wall);
+    line += buf;
+  }
+  if (!why.empty())
+    line.append(": ").append(why);
+  // One line per event, whatever the sweep's size. A line is one write() of an O_APPEND file,
+  // so the lines of two sweep processes on one folder do not mix.
+  std::replace(line.begin(), line.end(), '\n', ' ');
+  line += '\n';
+  const std::string path = (fs::path(plan_.out_dir) / "journal.log").string();
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+  if (fd < 0)
+    return;
+  const ssize_t n = ::write(fd, line.data(), line.size());
+  ::close(fd);
+  if (n > 0) {
+    ++writes_.journal_lines;
+    writes_.bytes += static_cast<std::size_t>(n);
+  }
+}
+
+void Coordinator::maybe_write_manifest() {
+  const double since = now_seconds() - manifest_at_;
+  if (events_since_manifest_ == 0)
+    return;
+  if (events_since_manifest_ * 8 >= tasks_.size() ||
+      since >= std::max(60.0, 20.0 * manifest_seconds_))
+    write_manifest();
+}
+
 void Coordinator::write_manifest() {
+  const double start = now_seconds();
+  // What other processes on the folder did since: a task this process neither runs nor ended
+  // is probed again (a task running elsewhere stays so until its files say it ended). The
+  // first write follows the probes of the constructor.
+  for (std::size_t i = 0; writes_.manifests > 0 && i < tasks_.size(); ++i) {
+    const TaskState s = state_[i];
+    if (s == TaskState::kRunning || s == TaskState::kDone || s == TaskState::kFailed)
+      continue;
+    std::string detail;
+    const TaskState now = probe(plan_, tasks_[i], &detail);
+    if (s == TaskState::kBusyElsewhere && now != TaskState::kDone && now != TaskState::kFailed)
+      continue;
+    state_[i] = now;
+    why_[i] = detail;
+  }
   toml::table root;
   toml::table head;
   head.insert("file", fs::absolute(plan_.path).lexically_normal().string());
@@ -311,13 +379,20 @@ void Coordinator::write_manifest() {
   }
   root.insert("point", std::move(points));
   std::ostringstream os;
-  os << "# jamflow sweep manifest: a view of the point files, rewritten as they change.\n"
+  os << "# jamflow sweep manifest: a view of the point files, rewritten now and then (every\n"
+     << "# event is in journal.log as it happens).\n"
      << root << "\n";
+  const std::string text = os.str();
   try {
-    write_text_atomically((fs::path(plan_.out_dir) / "manifest.toml").string(), os.str());
+    write_text_atomically((fs::path(plan_.out_dir) / "manifest.toml").string(), text);
+    ++writes_.manifests;
+    writes_.bytes += text.size();
   } catch (const std::exception& e) {
     std::fprintf(stderr, "sweep: warning: %s\n", e.what());
   }
+  events_since_manifest_ = 0;
+  manifest_at_ = now_seconds();
+  manifest_seconds_ = manifest_at_ - start;
 }
 
 // ---- Child processes --------------------------------------------------------------------------

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <thread>
 
 #include "driver/checkpoint.hpp"
@@ -437,6 +438,168 @@ TEST(ResumeCli, ExistingOutputNeedsForce) {
   ASSERT_EQ(spawn({"run", dir.file("o.toml"), "-q"}).wait(), 0);
   EXPECT_EQ(spawn({"run", dir.file("o.toml"), "-q"}).wait(), 2);
   EXPECT_EQ(spawn({"run", dir.file("o.toml"), "-q", "--force"}).wait(), 0);
+}
+
+}  // namespace
+}  // namespace jamflow
+
+namespace jamflow {
+namespace {
+
+std::string bytes_of(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// --extend that would not lengthen the window, and --resume of a finished file renamed .part,
+// are refused (exit 2) and leave the finished file as it was: its summary is never replaced by
+// one of nothing.
+TEST(ExtendCli, RefusesWhatWouldNotLengthenTheWindowAndKeepsTheFile) {
+  TempDir dir;
+  const std::string out = dir.file("fin.h5");
+  write_text(dir.file("fin.toml"), scene(out, kVolume, kEuler, 10.0, 20.0));
+  ASSERT_EQ(spawn({"run", dir.file("fin.toml"), "-q"}).wait(), 0);
+  const std::string before = bytes_of(out);
+  const auto names = H5Reader(out).attr_names("/summary");
+  // sample_every = 0.5: t_av = 20.25 is less than one sample longer.
+  for (const std::vector<std::string>& extra : {std::vector<std::string>{},
+                                                {"--set", "run.t_av=20.0"},
+                                                {"--set", "run.t_av=20.25"},
+                                                {"--set", "run.t_av=10.0"},
+                                                {"--set", "run.threads=1"},
+                                                {"--set", "output.checkpoint_every=5"}}) {
+    std::vector<std::string> args = {"run", "--extend", out, "-q"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const int status = spawn(args).wait();
+    // t_av = 10 is refused before (the run has reached further), the others by the new check.
+    EXPECT_EQ(status, 2) << (extra.empty() ? "no --set" : extra.back());
+    EXPECT_TRUE(bytes_of(out) == before) << (extra.empty() ? "no --set" : extra.back());
+  }
+  // A finished file renamed .part is not "resumed" into a file without a summary.
+  const std::string part = dir.file("ren.h5.part");
+  fs::copy_file(out, part);
+  EXPECT_EQ(spawn({"run", "--resume", part, "-q"}).wait(), 2);
+  EXPECT_TRUE(bytes_of(part) == before);
+  EXPECT_FALSE(fs::exists(dir.file("ren.h5")));
+  // One sample longer is an extension, with the whole summary.
+  ASSERT_EQ(spawn({"run", "--extend", out, "--set", "run.t_av=20.5", "-q"}).wait(), 0);
+  const H5Reader r(out);
+  EXPECT_EQ(r.attr_names("/summary"), names);
+  EXPECT_TRUE(std::isfinite(r.attr_double("/summary", "eta")));
+  EXPECT_EQ(r.read_doubles("/timeseries/time").size(), 62u);  // t = 0 to 30.5 every 0.5
+}
+
+}  // namespace
+}  // namespace jamflow
+
+namespace jamflow {
+namespace {
+
+// Replaces (or deletes, with value nullptr) a string attribute of an existing HDF5 file: an
+// edit by hand, as h5py would make it.
+void edit_attr(const std::string& path, const std::string& object, const std::string& name,
+               const char* value) {
+  const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  ASSERT_GE(f, 0) << path;
+  const hid_t o = H5Oopen(f, object.c_str(), H5P_DEFAULT);
+  ASSERT_GE(o, 0) << object;
+  if (H5Aexists(o, name.c_str()) > 0)
+    H5Adelete(o, name.c_str());
+  if (value) {
+    const hid_t t = H5Tcopy(H5T_C_S1);
+    H5Tset_size(t, H5T_VARIABLE);
+    H5Tset_cset(t, H5T_CSET_UTF8);
+    const hid_t s = H5Screate(H5S_SCALAR);
+    const hid_t a = H5Acreate2(o, name.c_str(), t, s, H5P_DEFAULT, H5P_DEFAULT);
+    H5Awrite(a, t, &value);
+    H5Aclose(a);
+    H5Sclose(s);
+    H5Tclose(t);
+  }
+  H5Oclose(o);
+  H5Fclose(f);
+}
+
+// A checkpoint of a run stopped by SIGTERM; empty when the run finished first.
+std::string stopped_part(const TempDir& dir, const std::string& name, const char* ensemble) {
+  const std::string out = dir.file(name + ".h5");
+  write_text(dir.file(name + ".toml"), scene(out, ensemble, kEuler, 1e4, 1e4));
+  Child c = spawn({"run", dir.file(name + ".toml"), "-q"});
+  wait_for_checkpoints(out + ".part", 2);
+  ::kill(c.pid, SIGTERM);
+  return c.wait() == 128 + SIGTERM ? out + ".part" : "";
+}
+
+// --resume of a checkpoint whose scene or version was edited: one line, exit 2, nothing run.
+// Each edited field separately, with the digest and (a file written before digests) without.
+TEST(ResumeCli, RefusesAnEditedSceneOrVersion) {
+  TempDir dir;
+  const std::string part = stopped_part(dir, "cv", kVolume);
+  ASSERT_FALSE(part.empty());
+  const std::string scene_text = H5Reader(part).attr_string("/", "scene");
+  auto edited = [&](const std::vector<std::string>& sets) {
+    Scene s = Scene::parse(scene_text, "stored");
+    for (const auto& a : sets)
+      s.set(a);
+    return s.text();
+  };
+  const std::vector<std::pair<std::string, std::vector<std::string>>> edits = {
+      {"N", {"system.N=200"}},
+      {"shear rate", {"shear.rate=0.2"}},
+      {"alpha_r", {"system.alpha=2.5"}},
+      {"ensemble", {"ensemble.kind=\"constant_pressure\"", "ensemble.pressure=0.01"}},
+      {"integrator", {"integrator.kind=\"respa\"", "integrator.n_inner=2"}},
+  };
+  int k = 0;
+  for (const bool digest : {true, false}) {
+    for (const auto& [what, sets] : edits) {
+      if (!digest && what != "N")
+        continue;  // without the digest, the state tells N (and the ensemble, below)
+      const std::string copy = dir.file("e" + std::to_string(k++) + ".h5.part");
+      fs::copy_file(part, copy);
+      edit_attr(copy, "/", "scene", edited(sets).c_str());
+      if (!digest)
+        edit_attr(copy, "/checkpoint", "digest", nullptr);
+      EXPECT_EQ(spawn({"run", "--resume", copy, "-q"}).wait(), 2) << what << " digest " << digest;
+      EXPECT_FALSE(fs::exists(copy.substr(0, copy.size() - 5))) << what;
+    }
+  }
+  // The version string.
+  const std::string v = dir.file("version.h5.part");
+  fs::copy_file(part, v);
+  edit_attr(v, "/", "version", "9.9.9");
+  EXPECT_EQ(spawn({"run", "--resume", v, "-q"}).wait(), 2);
+  // A constant-pressure checkpoint under a constant-volume scene, with and without the digest.
+  const std::string cp = stopped_part(dir, "cp", kPressure);
+  ASSERT_FALSE(cp.empty());
+  Scene as_cv = Scene::parse(H5Reader(cp).attr_string("/", "scene"), "stored");
+  as_cv.set_section("ensemble", toml::table{{"kind", "constant_volume"}});
+  for (const bool digest : {true, false}) {
+    const std::string copy = dir.file(std::string("cp") + (digest ? "d" : "n") + ".h5.part");
+    fs::copy_file(cp, copy);
+    edit_attr(copy, "/", "scene", as_cv.text().c_str());
+    if (!digest)
+      edit_attr(copy, "/checkpoint", "digest", nullptr);
+    EXPECT_EQ(spawn({"run", "--resume", copy, "-q"}).wait(), 2) << "digest " << digest;
+  }
+}
+
+// A checkpoint written before digests were stored still resumes, and so does one with only
+// run.threads changed.
+TEST(ResumeCli, OlderCheckpointsWithoutDigestStillResume) {
+  TempDir dir;
+  const std::string out = dir.file("old.h5");
+  write_text(dir.file("old.toml"), scene(out, kPressure, kEuler, 30.0, 30.0));
+  Child c = spawn({"run", dir.file("old.toml"), "-q"});
+  wait_for_checkpoints(out + ".part", 3);
+  ::kill(c.pid, SIGTERM);
+  if (c.wait() != 128 + SIGTERM)
+    GTEST_SKIP() << "the run finished before it was stopped";
+  edit_attr(out + ".part", "/checkpoint", "digest", nullptr);
+  EXPECT_EQ(spawn({"run", "--resume", out + ".part", "--set", "run.threads=1", "-q"}).wait(), 0);
+  EXPECT_TRUE(fs::exists(out));
 }
 
 }  // namespace

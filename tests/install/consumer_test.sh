@@ -23,8 +23,11 @@ done
 echo "ok: installed"
 
 # No build type: no optimisation, the quickest compile (the program runs for a second).
+# A sanitizer build (scripts/sanitize.sh) passes the flags its libraries need at link time.
+flags="${JAMFLOW_CONSUMER_FLAGS:-}"
 cmake -S "$src/examples/consumer" -B "$work/consumer" \
-  -DCMAKE_PREFIX_PATH="$prefix" >"$work/configure.log" || { cat "$work/configure.log"; exit 1; }
+  -DCMAKE_PREFIX_PATH="$prefix" -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_EXE_LINKER_FLAGS="$flags" \
+  >"$work/configure.log" || { cat "$work/configure.log"; exit 1; }
 cmake --build "$work/consumer" -j 2 >"$work/build.log" || { cat "$work/build.log"; exit 1; }
 out="$("$work/consumer/shear_ramp")"
 echo "$out"
@@ -37,7 +40,9 @@ echo "ok: installed jamflow runs"
 
 if [ "$have_python" = ON ]; then
   cd "$work"
-  PYTHONPATH="$prefix/$pydir" JAMFLOW_EXE= /usr/bin/python3 - "$prefix" <<'PY'
+  # (The sanitizer build preloads the sanitizers' runtimes into the interpreter.)
+  PYTHONPATH="$prefix/$pydir" JAMFLOW_EXE= LD_PRELOAD="${JAMFLOW_PYTHON_PRELOAD:-}" \
+    ASAN_OPTIONS="${JAMFLOW_PYTHON_PRELOAD:+detect_leaks=0}" /usr/bin/python3 - "$prefix" <<'PY'
 import os, sys
 import jamflow
 prefix = sys.argv[1]

@@ -21,6 +21,7 @@
 #include "lib/error.hpp"
 #include "lib/init.hpp"
 #include "lib/model.hpp"
+#include "tests/short_tests.hpp"
 #include "tests/two_spheres.hpp"
 
 namespace jamflow {
@@ -429,8 +430,10 @@ TEST(Cvode, InterruptStopsWithinOneInternalStep) {
   EXPECT_TRUE(std::isfinite(m.evaluate().pressure));
   EXPECT_GT(stat(cv, "steps"), 0.0);
   flag.store(false);
-  cv.advance(m, ens, t_end);
-  EXPECT_EQ(m.state().time, t_end);
+  // It goes on from there (to the end of the stretch, or a little way in a short test run).
+  const double t_on = testing_support::shortened(t_end, std::min(t_end, m.state().time + 0.5));
+  cv.advance(m, ens, t_on);
+  EXPECT_EQ(m.state().time, t_on);
   EXPECT_EQ(stat(cv, "reinits"), 1.0);
 }
 
