@@ -13,13 +13,14 @@ if [ "${1:-}" = "-j" ]; then
   jobs="$2"
   shift 2
 fi
+mkdir -p "$build"
 launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DJAMFLOW_SANITIZE=ON \
-  "${launcher[@]}" >"$build.configure.log" 2>&1 || { cat "$build.configure.log"; exit 1; }
+  "${launcher[@]}" >"$build/sanitize-configure.log" 2>&1 || { cat "$build/sanitize-configure.log"; exit 1; }
 # GCC 12's std::regex gives -Wmaybe-uninitialized false positives in its own headers under
 # -fsanitize=address; they are not ours, and the Release build is warning-free.
-cmake --build "$build" -j "$jobs" >"$build.build.log" 2>&1 || { tail -50 "$build.build.log"; exit 1; }
+cmake --build "$build" -j "$jobs" >"$build/sanitize-build.log" 2>&1 || { tail -50 "$build/sanitize-build.log"; exit 1; }
 
 export JAMFLOW_SHORT_TESTS=1
 # Leaks are reported (the default on Linux); a report ends the process with a failure.
