@@ -18,11 +18,14 @@ bool CollapseQuality::acceptable() const {
   return used > 0 && s <= 1.0 + 3.0 * std::sqrt(2.0 / static_cast<double>(used));
 }
 
-CollapseQuality houdayer_hartmann(const std::vector<CollapsePoint>& points) {
+namespace {
+
+// Each curve's points per branch, sorted by x (index: curve, then branch 0 or 1).
+std::vector<std::array<std::vector<const CollapsePoint*>, 2>> curves_by_branch(
+    const std::vector<CollapsePoint>& points) {
   std::size_t ncurves = 0;
   for (const auto& p : points)
     ncurves = std::max(ncurves, p.curve + 1);
-  // Each curve's points per branch, sorted by x.
   std::vector<std::array<std::vector<const CollapsePoint*>, 2>> curves(ncurves);
   for (const auto& p : points)
     curves[p.curve][p.branch != 0 ? 1 : 0].push_back(&p);
@@ -32,6 +35,14 @@ CollapseQuality houdayer_hartmann(const std::vector<CollapsePoint>& points) {
                 [](const CollapsePoint* a, const CollapsePoint* c2) { return a->x < c2->x; });
     }
   }
+  return curves;
+}
+
+}  // namespace
+
+CollapseQuality houdayer_hartmann(const std::vector<CollapsePoint>& points) {
+  const auto curves = curves_by_branch(points);
+  const std::size_t ncurves = curves.size();
   CollapseQuality q;
   q.total = points.size();
   double sum = 0.0;
@@ -83,18 +94,8 @@ CollapseQuality houdayer_hartmann(const std::vector<CollapsePoint>& points) {
 }
 
 CollapseQuality pairwise_interpolation(const std::vector<CollapsePoint>& points) {
-  std::size_t ncurves = 0;
-  for (const auto& p : points)
-    ncurves = std::max(ncurves, p.curve + 1);
-  std::vector<std::array<std::vector<const CollapsePoint*>, 2>> curves(ncurves);
-  for (const auto& p : points)
-    curves[p.curve][p.branch != 0 ? 1 : 0].push_back(&p);
-  for (auto& c : curves) {
-    for (auto& b : c) {
-      std::sort(b.begin(), b.end(),
-                [](const CollapsePoint* a, const CollapsePoint* c2) { return a->x < c2->x; });
-    }
-  }
+  const auto curves = curves_by_branch(points);
+  const std::size_t ncurves = curves.size();
   CollapseQuality q;
   q.total = points.size();
   double sum = 0.0;
