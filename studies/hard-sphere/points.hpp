@@ -39,10 +39,10 @@ GridPreset grid_preset(const std::string& preset);
 GridPreset finite_size_preset(const std::string& preset);
 
 // The integrator of a point (the timestep study's findings, SPEC §4, benchmarks/README.md):
-// RKC at atol = delta near jamming (P <= 1e-4), else RESPA with the particles on the inner level at
-// dt = 1 (stable at N >= 500), dt = 0.5 for 250 <= N < 500, and below N = 250 RESPA with the piston
-// on the inner level (8 sub-steps) at dt = 0.1: the piston's rate K / (V xi_V) is large in small
-// boxes (explicit Euler at dt = 0.1 oscillated at N = 64, P = 1e-2: force-step correlation
+// RKC at atol = 0.1 delta near jamming (P <= 1e-4), else RESPA with the particles on the inner
+// level at dt = 1 (stable at N >= 500), dt = 0.5 for 250 <= N < 500, and below N = 250 RESPA with
+// the piston on the inner level (8 sub-steps) at dt = 0.1: the piston's rate K / (V xi_V) is large
+// in small boxes (explicit Euler at dt = 0.1 oscillated at N = 64, P = 1e-2: force-step correlation
 // -0.53, energy balance 0.002), and dt = 0.1 is the seed's small-N step (lanes at dt >= 0.3).
 struct IntegratorChoice {
   std::string kind;

@@ -55,7 +55,7 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
     if (ic.kind == "cvode")
       return std::string("cvode");
     if (ic.kind == "rkc")
-      return std::string("rkc atol=delta");
+      return std::string("rkc atol=0.1 delta");
     return ic.kind + " dt " + num(ic.dt, 2);
   };
   // ...and as the table records it (what the points really ran), in the same words.
@@ -69,7 +69,7 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
       if (std::string(kind) == "cvode")
         return std::string("cvode");
       if (std::string(kind) == "rkc")
-        return std::string("rkc atol=delta");
+        return std::string("rkc atol=0.1 delta");
       const auto dt = t.find("dt");
       return std::string(kind) + " dt " +
              (dt == std::string::npos ? std::string("?")
