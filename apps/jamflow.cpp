@@ -19,6 +19,7 @@
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "lib/version.hpp"
+#include "studies/compare/compare.hpp"
 #include "studies/study.hpp"
 
 namespace {
@@ -174,6 +175,7 @@ void print_usage() {
       "              [--slurm [--array-size M] [--time HH:MM:SS]] [--task K --array-size M]\n"
       "  mpirun -n R jamflow sweep SWEEP.toml   the points farmed over R MPI ranks\n"
       "  jamflow study NAME --preset {quick|standard|paper}\n"
+      "  jamflow compare COMPARE.toml [--out DIR] [-j K] [--dry-run] [--slurm]\n"
       "  jamflow --version | --help\n\n"
       "Each command takes --help.\n",
       JAMFLOW_VERSION);
@@ -194,9 +196,9 @@ int main(int argc, char** argv) {
     if (args.empty() || args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
       print_usage();
       if (args.empty())
-        std::fprintf(
-            stderr,
-            "jamflow: error: no command given; allowed: run, scene, sweep, analyze, study\n");
+        std::fprintf(stderr,
+                     "jamflow: error: no command given; allowed: run, scene, sweep, analyze, "
+                     "study, compare\n");
       return args.empty() ? 2 : 0;
     }
     if (args[0] == "--version" || args[0] == "-V") {
@@ -217,9 +219,12 @@ int main(int argc, char** argv) {
       return jamflow::apps::sweep_command(rest);
     if (cmd == "study")
       return jamflow::studies::study_main(rest);
-    std::fprintf(stderr,
-                 "jamflow: unknown command '%s'; allowed: run, scene, sweep, analyze, study\n",
-                 cmd.c_str());
+    if (cmd == "compare")
+      return jamflow::studies::compare_main(rest);
+    std::fprintf(
+        stderr,
+        "jamflow: unknown command '%s'; allowed: run, scene, sweep, analyze, study, compare\n",
+        cmd.c_str());
     return 2;
   } catch (const jamflow::ConfigError& e) {
     std::fprintf(stderr, "jamflow: error: %s\n", jamflow::one_line(e.what()).c_str());

@@ -39,6 +39,9 @@ struct StudyOptions {
   };
   DryRunTally* tally = nullptr;
   std::vector<std::string> only;  // `study paper --only`: these parts, in its order
+  // The command that runs this again (messages of --dry-run and --slurm); empty: `jamflow study
+  // NAME --preset P --out DIR`. `jamflow compare` runs its stages with these options too.
+  std::string command;
 };
 
 using StudyFn = std::function<int(const StudyOptions&)>;

@@ -60,7 +60,12 @@ std::optional<int> run_sweep_study(const std::string& study, const std::string& 
   out.plan.name = stage.name.empty() ? study : study + "-" + stage.name;
   const sweep::CostEstimate cost = sweep::estimate_cost(out.plan);
   out.cpu_hours_estimate = cost.cpu_hours;
-  const std::string what = stage.name.empty() ? study : study + " (stage " + stage.name + ")";
+  const std::string what = (stage.name.empty() ? study : study + " (stage " + stage.name + ")") +
+                           (options.command.empty() ? " --preset " + options.preset : "");
+  const std::string again =
+      options.command.empty()
+          ? "jamflow study " + study + " --preset " + options.preset + " --out " + options.out_dir
+          : options.command;
   const std::string next =
       stage.last ? std::string()
       : options.dry_run
@@ -75,12 +80,12 @@ std::optional<int> run_sweep_study(const std::string& study, const std::string& 
     const RunsLeft left = count_runs(out.plan, options.tally);
     if (!finished_stage) {
       std::printf(
-          "%s --preset %s: %zu points x %lld replicas = %zu runs, about %.3g CPU-hours (each "
+          "%s: %zu points x %lld replicas = %zu runs, about %.3g CPU-hours (each "
           "integrator's measured CPU time per particle and tau_0); %zu finished, about %.3g "
           "CPU-hours left -> %s%s\n",
-          what.c_str(), options.preset.c_str(), out.plan.points.size(),
-          static_cast<long long>(out.plan.replicas), cost.tasks, cost.cpu_hours, left.finished,
-          left.cpu_hours, out.plan.out_dir.c_str(), next.c_str());
+          what.c_str(), out.plan.points.size(), static_cast<long long>(out.plan.replicas),
+          cost.tasks, cost.cpu_hours, left.finished, left.cpu_hours, out.plan.out_dir.c_str(),
+          next.c_str());
       if (stage.last)
         return 0;
       out.counted_only = true;
@@ -94,10 +99,8 @@ std::optional<int> run_sweep_study(const std::string& study, const std::string& 
     so.partition = options.slurm_partition;
     const std::string script = sweep::write_slurm_script(out.plan, so);
     std::printf(
-        "%s\nsubmit it with: sbatch %s\nthen, when the array is done: jamflow study %s "
-        "--preset %s --out %s%s\n",
-        script.c_str(), script.c_str(), study.c_str(), options.preset.c_str(),
-        options.out_dir.c_str(),
+        "%s\nsubmit it with: sbatch %s\nthen, when the array is done: %s%s\n", script.c_str(),
+        script.c_str(), again.c_str(),
         stage.last ? "" : " (it writes the next stage's array, or the report after the last)");
     return 0;
   }

@@ -126,6 +126,41 @@ void anchor_init(Scene& scene, const fs::path& dir) {
   scene.set_value("system.init", toml::value<std::string>((dir / p).lexically_normal().string()));
 }
 
+}  // namespace
+
+Scene load_base_scene(const toml::node* file_key, const toml::table* inline_scene,
+                      const std::string& dir, const std::string& source,
+                      const std::string& file_key_name, const std::string& inline_name,
+                      const std::string& relative_to) {
+  const fs::path base(dir.empty() ? "." : dir);
+  Scene scene;
+  if (file_key) {
+    if (!file_key->is_string())
+      throw ConfigError(source + ": " + file_key_name + " must be a file name (a string)");
+    fs::path p(file_key->as_string()->get());
+    if (p.is_relative())
+      p = base / p;
+    try {
+      scene = Scene::load(p.lexically_normal().string());
+    } catch (const InputFileError& e) {
+      throw ConfigError(source + ": " + file_key_name + " = \"" + file_key->as_string()->get() +
+                        "\" (relative to " + relative_to + "): " + e.what());
+    }
+    anchor_init(scene, p.parent_path());
+  } else if (inline_scene) {
+    std::ostringstream os;
+    os << *inline_scene << "\n";
+    scene = Scene::parse(os.str(), source + " " + inline_name);
+    anchor_init(scene, base);
+  } else {
+    throw ConfigError(source + ": no base scene; allowed " + file_key_name + " = \"FILE\" or a " +
+                      inline_name + " table");
+  }
+  return scene;
+}
+
+namespace {
+
 // Expected CPU seconds of one replica: N x (t_eq + t_av, or max_time) x the integrator's
 // measured CPU seconds per particle and unit time (Integrator::cpu_seconds_per_particle_time)
 // at the run's imposed pressure and shear rate; 1e-4 stands in for the pressure at constant
@@ -211,33 +246,11 @@ Plan parse_plan(const std::string& text, const std::string& source, const std::s
       out_dir.empty() ? (base / (plan.name + ".sweep")).lexically_normal().string() : out_dir;
 
   // The base scene: a file (relative to the sweep file) or the inline [scene] table.
-  Scene scene;
   const toml::node* scene_key = sw->get("scene");
   if (scene_key && file.table("scene"))
     throw ConfigError(source + ": both [sweep] scene and a [scene] table; allowed one of them");
-  if (scene_key) {
-    if (!scene_key->is_string())
-      throw ConfigError(source + ": [sweep] scene must be a file name (a string)");
-    fs::path p(scene_key->as_string()->get());
-    if (p.is_relative())
-      p = base / p;
-    try {
-      scene = Scene::load(p.lexically_normal().string());
-    } catch (const InputFileError& e) {
-      throw ConfigError(source + ": [sweep] scene = \"" + scene_key->as_string()->get() +
-                        "\" (relative to the sweep file): " + e.what());
-    }
-    anchor_init(scene, p.parent_path());
-  } else if (const toml::table* inline_scene = file.table("scene")) {
-    std::ostringstream os;
-    os << *inline_scene << "\n";
-    scene = Scene::parse(os.str(), source + " [scene]");
-    anchor_init(scene, base);
-  } else {
-    throw ConfigError(source +
-                      ": no base scene; allowed [sweep] scene = \"FILE\" or a [scene] "
-                      "table");
-  }
+  Scene scene = load_base_scene(scene_key, file.table("scene"), base.string(), source,
+                                "[sweep] scene", "[scene]", "the sweep file");
 
   // Replicas: [sweep] replicas, else the scene's [run] replicas, else 1.
   plan.replicas = 1;

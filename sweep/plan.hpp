@@ -73,6 +73,14 @@ Plan load_plan(const std::string& path, const std::string& out_dir = {});
 Plan parse_plan(const std::string& text, const std::string& source, const std::string& base_dir,
                 const std::string& out_dir);
 
+// A base scene named by a file key (`file_key`: a path relative to `dir`) or given as an inline
+// table, as sweep and compare files name theirs; a relative `system.init` in it is made
+// absolute against the folder of the scene that names it. Errors name `source` and the key.
+Scene load_base_scene(const toml::node* file_key, const toml::table* inline_scene,
+                      const std::string& dir, const std::string& source,
+                      const std::string& file_key_name, const std::string& inline_name,
+                      const std::string& relative_to);
+
 // Share of the tasks for one task of a job array of `size` (Slurm): tasks are dealt
 // expected-longest first to the share with the least expected work so far. Deterministic, so
 // every array task computes the same split. Returns indices into plan.tasks().

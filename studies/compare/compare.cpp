@@ -1,0 +1,959 @@
+// `jamflow compare`: the compare file, its two stages on the sweep engine, and the report
+// (studies/compare/compare.hpp).
+#include "studies/compare/compare.hpp"
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <sstream>
+
+#include "analysis/compare.hpp"
+#include "driver/run.hpp"
+#include "driver/verdicts.hpp"
+#include "lib/cli_exit.hpp"
+#include "lib/error.hpp"
+#include "lib/h5.hpp"
+#include "lib/statistics.hpp"
+#include "studies/common.hpp"
+#include "studies/diagnostics.hpp"
+#include "sweep/mpi.hpp"
+#include "sweep/plan.hpp"
+#include "sweep/slurm.hpp"
+
+namespace jamflow::studies {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Keys a setting (or the preparation) may override: what changes the method or the state point,
+// not what makes the runs comparable (start state, seed, lengths, sampling) nor what the sweep
+// sets (output, threads, replicas).
+bool overridable(const std::string& section, const std::string& key) {
+  if (section == "integrator" || section == "ensemble")
+    return true;
+  if (section == "system")
+    return key == "N" || key == "alpha" || key == "skin";
+  if (section == "shear")
+    return key == "rate";
+  if (section == "run")
+    return key == "max_force_evaluations";
+  return false;
+}
+constexpr const char* kOverridable =
+    "integrator.*, ensemble.*, system.N, system.alpha, system.skin, shear.rate, "
+    "run.max_force_evaluations";
+
+std::string show(const toml::node& v) {
+  std::ostringstream os;
+  v.visit([&](const auto& x) { os << x; });
+  return os.str();
+}
+
+// The overrides of a [[setting]] or [prepare] table: nested tables (integrator = {...},
+// integrator.dt = 0.1) and quoted dotted keys ("integrator.dt" = 0.1) alike, as section ->
+// table. `skip`: keys of the table itself (label, t, init).
+toml::table read_overrides(const toml::table& t, const std::string& where,
+                           const std::vector<std::string>& skip, bool allow_n) {
+  toml::table out;
+  auto add = [&](const std::string& section, const std::string& key, const toml::node& v) {
+    if (!overridable(section, key) || (!allow_n && section == "system" && key == "N"))
+      throw ConfigError(where + ": key " + section + "." + key + " = " + show(v) +
+                        " cannot be overridden here; allowed " + kOverridable +
+                        (allow_n ? "" : " (but system.N, which each setting sets)"));
+    if (v.is_table() || v.is_array_of_tables())
+      throw ConfigError(where + ": key " + section + "." + key + " is a table; allowed a value");
+    if (!out.contains(section))
+      out.insert(section, toml::table{});
+    if (out[section].as_table()->contains(key))
+      throw ConfigError(where + ": key " + section + "." + key + " given twice; allowed once");
+    out[section].as_table()->insert(key, v);
+  };
+  for (const auto& [k, v] : t) {
+    const std::string key(k.str());
+    if (std::find(skip.begin(), skip.end(), key) != skip.end())
+      continue;
+    if (const toml::table* sub = v.as_table()) {
+      for (const auto& [k2, v2] : *sub)
+        add(key, std::string(k2.str()), v2);
+    } else if (const auto dot = key.find('.'); dot != std::string::npos && dot > 0) {
+      add(key.substr(0, dot), key.substr(dot + 1), v);
+    } else {
+      std::string allowed;
+      for (const auto& s : skip)
+        allowed += s + ", ";
+      throw ConfigError(where + ": unknown key " + key + " = " + show(v) + "; allowed " + allowed +
+                        "and overrides " + kOverridable);
+    }
+  }
+  return out;
+}
+
+// Applies overrides to a scene: a section whose override names another `kind` is replaced whole
+// (another integrator's or ensemble's keys do not carry over), others are merged key by key.
+void apply_overrides(Scene& scene, const toml::table& overrides) {
+  for (const auto& [sec, node] : overrides) {
+    const std::string section(sec.str());
+    const toml::table& keys = *node.as_table();
+    toml::table merged = scene.table(section) ? *scene.table(section) : toml::table{};
+    const toml::node* kind = keys.get("kind");
+    const toml::node* base_kind = merged.get("kind");
+    if (kind && (!base_kind || show(*kind) != show(*base_kind)))
+      merged = toml::table{};
+    for (const auto& [k, v] : keys)
+      merged.insert_or_assign(k.str(), v);
+    scene.set_section(section, std::move(merged));
+  }
+}
+
+std::int64_t scene_n(const Scene& scene) {
+  const toml::table* sys = scene.table("system");
+  const toml::node* n = sys ? sys->get("N") : nullptr;
+  return n && n->is_integer() ? n->as_integer()->get() : 0;
+}
+
+bool valid_label(const std::string& s) {
+  if (s.empty() || s.size() > 64)
+    return false;
+  for (char c : s)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.' ||
+          c == '+' || c == '='))
+      return false;
+  return s != "." && s != "..";
+}
+
+std::string join(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& x : v)
+    s += (s.empty() ? "" : ", ") + x;
+  return s;
+}
+
+}  // namespace
+
+const std::vector<std::string>& compare_observables() {
+  static const std::vector<std::string> kObservables = {"sigma_xy", "pressure",    "phi",
+                                                        "energy",   "dissipation", "eta"};
+  return kObservables;
+}
+
+Scene ComparePlan::setting_scene(std::size_t s) const {
+  Scene scene = base;
+  apply_overrides(scene, settings[s].overrides);
+  toml::table r = scene.table("run") ? *scene.table("run") : toml::table{};
+  for (const auto& [k, v] : run)
+    r.insert_or_assign(k.str(), v);
+  if (const toml::table* o = settings[s].overrides.get_as<toml::table>("run"))
+    for (const auto& [k, v] : *o)
+      r.insert_or_assign(k.str(), v);
+  for (const char* k : {"replicas", "target_error", "max_time"})
+    r.erase(k);
+  scene.set_section("run", std::move(r));
+  if (!init.empty())
+    scene.set_value("system.init", toml::value<std::string>(init));
+  return scene;
+}
+
+Scene ComparePlan::prepare_scene(std::int64_t n) const {
+  Scene scene = base;
+  apply_overrides(scene, prepare_overrides);
+  scene.set_value("system.N", toml::value<std::int64_t>(n));
+  // The whole run is the preparation: no window is averaged over that matters, but a run needs
+  // one, so the second half is its window (its summary says whether it is steady).
+  toml::table r = scene.table("run") ? *scene.table("run") : toml::table{};
+  const toml::node* se = r.get("sample_every");
+  double every = prepare_sample_every    ? *prepare_sample_every
+                 : se && se->is_number() ? se->value<double>().value_or(1.0)
+                                         : 1.0;
+  const double half = every * std::max(10.0, std::ceil(0.5 * prepare_t / every));
+  for (const char* k : {"replicas", "target_error", "max_time", "max_force_evaluations"})
+    r.erase(k);
+  r.insert_or_assign("sample_every", every);
+  r.insert_or_assign("t_eq", half);
+  r.insert_or_assign("t_av", half);
+  scene.set_section("run", std::move(r));
+  return scene;
+}
+
+std::vector<std::int64_t> ComparePlan::sizes() const {
+  std::vector<std::int64_t> out;
+  for (const auto& s : settings)
+    if (std::find(out.begin(), out.end(), s.n) == out.end())
+      out.push_back(s.n);
+  return out;
+}
+
+ComparePlan parse_compare(const std::string& text, const std::string& source,
+                          const std::string& base_dir) {
+  // Scene::parse checks what toml++ must not see (non-ASCII outside strings) and names the line
+  // of a syntax error; the root table is then read as it is.
+  (void)Scene::parse(text, source);
+  const toml::table top = toml::parse(text, source);
+  for (const auto& [k, v] : top) {
+    const std::string key(k.str());
+    static const std::vector<std::string> kKeys = {
+        "base",        "prepare",         "run",
+        "setting",     "reference",       "replicas",
+        "observables", "tolerance_sigma", "relative_tolerance"};
+    if (std::find(kKeys.begin(), kKeys.end(), key) == kKeys.end())
+      throw ConfigError(source + ": unknown key " + key + " = " + show(v) + "; allowed " +
+                        join(kKeys));
+  }
+  ComparePlan plan;
+  plan.path = source;
+  plan.name = fs::path(source).stem().string();
+  const std::string where = source + ": ";
+
+  // [base]: scene = "FILE" or the scene's sections inline.
+  const toml::table* base = top.get_as<toml::table>("base");
+  if (!base)
+    throw ConfigError(where +
+                      "no [base] section; allowed [base] scene = \"FILE\" or inline "
+                      "[base.system], [base.ensemble], ... tables");
+  const toml::node* scene_key = base->get("scene");
+  if (scene_key && base->size() > 1)
+    throw ConfigError(where +
+                      "[base] has scene = \"FILE\" and inline sections; allowed one of "
+                      "them");
+  plan.base = sweep::load_base_scene(scene_key, scene_key ? nullptr : base, base_dir, source,
+                                     "[base] scene", "[base]", "the compare file");
+  if (const toml::table* sys = plan.base.table("system"); sys && sys->contains("init"))
+    throw ConfigError(where +
+                      "[base] scene has system.init; allowed a scene with N and phi (the "
+                      "start state comes from [prepare])");
+  if (const toml::table* sys = plan.base.table("system"))
+    if (const toml::node* s = sys->get("seed"); s && s->is_integer() && s->as_integer()->get() >= 0)
+      plan.seed = static_cast<std::uint64_t>(s->as_integer()->get());
+
+  // Top-level keys.
+  ConfigSection top_keys("compare", &top);
+  plan.replicas = top_keys.integer("replicas", 1, 1, 1000);
+  plan.tolerance_sigma = top_keys.number("tolerance_sigma", 2.0, Range::positive());
+  const std::vector<std::string>& allowed_obs = compare_observables();
+  if (const toml::node* obs = top.get("observables")) {
+    const toml::array* a = obs->as_array();
+    if (!a || a->empty())
+      throw ConfigError(where + "observables = " + show(*obs) + "; allowed a non-empty list of " +
+                        join(allowed_obs));
+    for (const auto& o : *a) {
+      const auto s = o.value<std::string>();
+      if (!s || std::find(allowed_obs.begin(), allowed_obs.end(), *s) == allowed_obs.end())
+        throw ConfigError(where + "observables: " + show(o) + " is not allowed; allowed " +
+                          join(allowed_obs));
+      if (std::find(plan.observables.begin(), plan.observables.end(), *s) != plan.observables.end())
+        throw ConfigError(where + "observables: \"" + *s + "\" given twice; allowed once");
+      plan.observables.push_back(*s);
+    }
+  } else {
+    plan.observables = {"sigma_xy", "pressure", "phi"};
+  }
+  plan.relative_tolerance.assign(plan.observables.size(), 0.0);
+  if (const toml::node* rt = top.get("relative_tolerance")) {
+    const toml::table* t = rt->as_table();
+    if (!t)
+      throw ConfigError(where + "relative_tolerance = " + show(*rt) +
+                        "; allowed a table {observable = value}");
+    ConfigSection sec("relative_tolerance", t);
+    for (std::size_t o = 0; o < plan.observables.size(); ++o)
+      plan.relative_tolerance[o] = sec.number(plan.observables[o], 0.0, Range::non_negative());
+    sec.finish();
+  }
+
+  // [run]: the averaging every setting shares.
+  const toml::table* run = top.get_as<toml::table>("run");
+  ConfigSection run_sec("run", run);
+  if (!run)
+    throw ConfigError(where + "no [run] section; allowed [run] t_eq = T, t_av = T");
+  plan.run.insert("t_eq", run_sec.number("t_eq", Range::non_negative()));
+  plan.run.insert("t_av", run_sec.number("t_av", Range::positive()));
+  if (run_sec.has("sample_every"))
+    plan.run.insert("sample_every", run_sec.number("sample_every", Range::positive()));
+  if (run_sec.has("max_force_evaluations"))
+    plan.run.insert("max_force_evaluations",
+                    run_sec.integer("max_force_evaluations", 0, 1000000000000000));
+  plan.blocks = run_sec.integer("blocks", 20, 2, 100000);
+  plan.run.insert("blocks", plan.blocks);
+  run_sec.finish();
+
+  // [prepare]: init = "FILE", or t = T with optional overrides.
+  const toml::table* prep = top.get_as<toml::table>("prepare");
+  if (!prep)
+    throw ConfigError(where +
+                      "no [prepare] section; allowed [prepare] t = T (a preparation run) "
+                      "or init = \"FILE.xyz\"");
+  {
+    ConfigSection sec("prepare", prep);
+    const bool has_init = sec.has("init"), has_t = sec.has("t");
+    if (has_init == has_t)
+      throw ConfigError(where + "[prepare] has " +
+                        (has_init ? "both init and t"
+                                  : "neither init "
+                                    "nor t") +
+                        "; allowed one of them");
+    if (has_init) {
+      fs::path p(sec.text("init", ""));
+      if (p.is_relative())
+        p = fs::path(base_dir.empty() ? "." : base_dir) / p;
+      plan.init = fs::absolute(p).lexically_normal().string();
+      if (plan.replicas > 1)
+        throw ConfigError(where + "replicas = " + std::to_string(plan.replicas) +
+                          " with [prepare] init: the dynamics is deterministic, so runs from "
+                          "one start state are identical; allowed replicas = 1, or [prepare] "
+                          "t = T (one preparation per replica)");
+      if (prep->size() > 1)
+        throw ConfigError(where + "[prepare] init with other keys; allowed init alone");
+    } else {
+      plan.prepare_t = sec.number("t", Range::positive());
+      if (sec.has("sample_every"))
+        plan.prepare_sample_every = sec.number("sample_every", Range::positive());
+      plan.prepare_overrides =
+          read_overrides(*prep, source + ": [prepare]", {"t", "sample_every"}, false);
+    }
+  }
+
+  // [[setting]]
+  const toml::node* settings = top.get("setting");
+  const toml::array* list = settings ? settings->as_array() : nullptr;
+  if (!list || list->empty() || !list->is_array_of_tables())
+    throw ConfigError(where +
+                      "no [[setting]] tables; allowed at least two [[setting]] with a "
+                      "label each");
+  const std::int64_t base_n = scene_n(plan.base);
+  for (const auto& node : *list) {
+    const toml::table& t = *node.as_table();
+    CompareSetting s;
+    const auto label = t.get("label") ? t.get("label")->value<std::string>() : std::nullopt;
+    const std::string at = where + "[[setting]] " + std::to_string(plan.settings.size() + 1);
+    if (!label || !valid_label(*label))
+      throw ConfigError(at + ": label = " + (t.get("label") ? show(*t.get("label")) : "missing") +
+                        "; allowed 1-64 characters of A-Z a-z 0-9 _ - . + =");
+    s.label = *label;
+    for (const auto& other : plan.settings)
+      if (other.label == s.label)
+        throw ConfigError(at + ": label \"" + s.label + "\" given twice; allowed unique labels");
+    s.overrides = read_overrides(t, where + "[[setting]] '" + s.label + "'", {"label"}, true);
+    s.n = base_n;
+    if (const toml::table* sys = s.overrides.get_as<toml::table>("system"))
+      if (const toml::node* n = sys->get("N"); n && n->is_integer())
+        s.n = n->as_integer()->get();
+    if (!plan.init.empty() && s.n != base_n)
+      throw ConfigError(where + "[[setting]] '" + s.label +
+                        "' sets system.N with [prepare] init; allowed N from the start state");
+    plan.settings.push_back(std::move(s));
+  }
+  if (plan.settings.size() < 2)
+    throw ConfigError(where + "one [[setting]]; allowed at least two (a reference and another)");
+  const toml::node* ref = top.get("reference");
+  const auto ref_label = ref ? ref->value<std::string>() : std::nullopt;
+  std::vector<std::string> labels;
+  for (const auto& s : plan.settings)
+    labels.push_back(s.label);
+  const auto it = ref_label ? std::find(labels.begin(), labels.end(), *ref_label) : labels.end();
+  if (it == labels.end())
+    throw ConfigError(where + "reference = " + (ref ? show(*ref) : "missing") +
+                      "; allowed the label of a setting: " + join(labels));
+  plan.reference = static_cast<std::size_t>(it - labels.begin());
+
+  // Every scene through the checks of `jamflow run`, before anything runs.
+  for (std::size_t s = 0; s < plan.settings.size(); ++s) {
+    try {
+      (void)parse_run_spec(plan.setting_scene(s));
+    } catch (const ConfigError& e) {
+      throw ConfigError(where + "[[setting]] '" + plan.settings[s].label + "': " + e.what());
+    }
+  }
+  if (plan.init.empty()) {
+    for (std::int64_t n : plan.sizes()) {
+      try {
+        (void)parse_run_spec(plan.prepare_scene(n));
+      } catch (const ConfigError& e) {
+        throw ConfigError(where + "[prepare] (N = " + std::to_string(n) + "): " + e.what());
+      }
+    }
+  }
+  return plan;
+}
+
+ComparePlan load_compare(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::error_code ec;
+  if (!in || fs::is_directory(path, ec))
+    throw InputFileError("cannot read compare file '" + path + "'; allowed a readable TOML file");
+  std::ostringstream buf;
+  buf << in.rdbuf();
+  return parse_compare(buf.str(), path, fs::path(path).parent_path().string());
+}
+
+namespace {
+
+// One observable as a sampled field, times a factor (eta = sigma_xy / gdot).
+struct Field {
+  double Sample::*member = &Sample::sigma_xy;
+  double factor = 1.0;
+};
+Field field_of(const std::string& name, double gdot) {
+  if (name == "pressure")
+    return {&Sample::pressure, 1.0};
+  if (name == "phi")
+    return {&Sample::phi, 1.0};
+  if (name == "energy")
+    return {&Sample::energy, 1.0};
+  if (name == "dissipation")
+    return {&Sample::dissipation, 1.0};
+  if (name == "eta")
+    return {&Sample::sigma_xy, gdot > 0.0 ? 1.0 / gdot : kNaN};
+  return {&Sample::sigma_xy, 1.0};
+}
+
+// The averaging window of a run: samples after t_eq (as the summary and paired_error take it).
+std::vector<double> window_values(const DiagnosedRun& r, const Field& f) {
+  std::vector<double> x;
+  for (const Sample& s : r.result.series.samples)
+    if (s.time > r.t_eq + 1e-6)
+      x.push_back(s.*(f.member) * f.factor);
+  return x;
+}
+
+double sample_interval(const DiagnosedRun& r) {
+  const auto& s = r.result.series.samples;
+  return s.size() >= 2 ? s[1].time - s[0].time : kNaN;
+}
+
+double summary_value(const DiagnosedRun& r, const char* key) {
+  return r.value(key);
+}
+
+// Why a finished run is not stable: a failed run, or its stable verdict (energy balance, force
+// step correlation; driver/verdicts.hpp) failed. Empty: stable.
+std::string unstable_reason(const DiagnosedRun& r) {
+  if (r.result.status != "complete")
+    return r.verdict_text();
+  const auto it = r.result.summary.verdicts.find("stable");
+  if (it != r.result.summary.verdicts.end() && it->second.rfind("fail", 0) == 0)
+    return it->second;
+  return {};
+}
+
+struct SettingRuns {
+  std::vector<DiagnosedRun> replicas;  // one per replica (replica k from prepared state k)
+  double balance = kNaN, balance_err = kNaN, step_correlation = kNaN;
+  int steady_failed = 0, decorrelated_failed = 0;
+  std::string integrator, ensemble;
+};
+
+analysis::CompareInput analysis_input(const ComparePlan& plan,
+                                      const std::vector<SettingRuns>& runs) {
+  analysis::CompareInput in;
+  in.observables = plan.observables;
+  in.reference = plan.reference;
+  in.blocks = static_cast<std::size_t>(plan.blocks);
+  in.tolerance_sigma = plan.tolerance_sigma;
+  in.relative_tolerance = plan.relative_tolerance;
+  const SettingRuns& ref = runs[plan.reference];
+  for (std::size_t s = 0; s < plan.settings.size(); ++s) {
+    analysis::SettingInput si;
+    si.label = plan.settings[s].label;
+    si.ensemble = runs[s].ensemble;
+    si.particles = double(plan.settings[s].n);
+    bool all_complete = true;
+    for (const auto& r : runs[s].replicas) {
+      const std::string why = unstable_reason(r);
+      if (!why.empty() && si.why_unstable.empty())
+        si.why_unstable = r.label + ": " + why;
+      si.stable = si.stable && why.empty();
+      const auto& v = r.result.summary.verdicts;
+      const auto steady = v.find("steady");
+      si.steady = si.steady && !(steady != v.end() && steady->second.rfind("fail", 0) == 0);
+      all_complete = all_complete && r.result.status == "complete";
+    }
+    if (all_complete) {
+      si.observables.resize(plan.observables.size());
+      for (std::size_t k = 0; k < runs[s].replicas.size(); ++k) {
+        const DiagnosedRun& r = runs[s].replicas[k];
+        const auto& samples = r.result.series.samples;
+        const double t_total = samples.empty() ? kNaN : samples.back().time;
+        si.cpu_per_tau.push_back(r.cpu_seconds / t_total);
+        for (std::size_t o = 0; o < plan.observables.size(); ++o) {
+          const Field f = field_of(plan.observables[o], r.gdot);
+          const std::vector<double> x = window_values(r, f);
+          analysis::ReplicaObservable ro;
+          if (x.size() < static_cast<std::size_t>(plan.blocks)) {
+            ro.mean = ro.block_error = ro.block_std = ro.tau = ro.paired_error = kNaN;
+          } else {
+            const BlockAverage b = block_average(x, static_cast<std::size_t>(plan.blocks));
+            ro.mean = b.mean;
+            ro.block_error = b.error;
+            ro.block_std = b.block_std;
+            ro.tau = integrated_autocorrelation(x) * sample_interval(r);
+            ro.paired_error = kNaN;
+            if (k < ref.replicas.size() && ref.replicas[k].result.status == "complete") {
+              const Field rf = field_of(plan.observables[o], ref.replicas[k].gdot);
+              if (rf.factor == f.factor)
+                ro.paired_error =
+                    paired_error(r.result.series, ref.replicas[k].result.series, r.t_eq, f.member,
+                                 static_cast<std::size_t>(plan.blocks)) *
+                    std::abs(f.factor);
+            }
+          }
+          si.observables[o].push_back(ro);
+        }
+      }
+    }
+    in.settings.push_back(std::move(si));
+  }
+  return in;
+}
+
+// Fills the per-setting diagnostics the table reports beside the analysis: energy balance, force
+// step correlation and the verdict counts (means over the finished replicas).
+void diagnostics_of(SettingRuns& sr) {
+  double b = 0.0, be = 0.0, c = 0.0;
+  int nb = 0, nc = 0;
+  for (const auto& r : sr.replicas) {
+    if (r.result.status != "complete")
+      continue;
+    if (r.balance.valid) {
+      b += r.balance.ratio;
+      be += r.balance.error * r.balance.error;
+      ++nb;
+    }
+    const double corr = summary_value(r, "force_step_correlation");
+    if (std::isfinite(corr)) {
+      c += corr;
+      ++nc;
+    }
+    const auto& v = r.result.summary.verdicts;
+    if (auto it = v.find("steady"); it != v.end() && it->second.rfind("fail", 0) == 0)
+      ++sr.steady_failed;
+    if (auto it = v.find("decorrelated"); it != v.end() && it->second.rfind("fail", 0) == 0)
+      ++sr.decorrelated_failed;
+  }
+  if (nb > 0) {
+    sr.balance = b / nb;
+    sr.balance_err = std::sqrt(be) / nb;
+  }
+  if (nc > 0)
+    sr.step_correlation = c / nc;
+}
+
+std::string csv_num(double v) {
+  if (!std::isfinite(v))
+    return "";
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+std::string table_csv(const ComparePlan& plan, const std::vector<SettingRuns>& runs,
+                      const analysis::CompareResult& res) {
+  std::ostringstream os;
+  os << "setting,reference,integrator,ensemble,N,replicas,stable,within,rank,recommended,"
+        "cpu_per_tau,cpu_per_tau_err,cpu_per_particle_tau,cpu_per_particle_tau_err,"
+        "energy_balance,energy_balance_err,force_step_correlation,steady_failed,"
+        "decorrelated_failed";
+  for (const auto& o : plan.observables)
+    for (const char* c : {"", "_err", "_diff", "_diff_err", "_diff_source", "_floor", "_z",
+                          "_block_std", "_block_std_err", "_replica_std", "_replica_std_err",
+                          "_block_std_ratio", "_block_std_ratio_err", "_replica_std_ratio",
+                          "_replica_std_ratio_err", "_tau", "_tau_err"})
+      os << "," << o << c;
+  os << ",why_unstable\n";
+  for (std::size_t s = 0; s < res.settings.size(); ++s) {
+    const auto& r = res.settings[s];
+    const auto& sr = runs[s];
+    os << r.label << "," << (s == plan.reference ? 1 : 0) << "," << sr.integrator << ","
+       << sr.ensemble << "," << plan.settings[s].n << "," << sr.replicas.size() << ","
+       << (r.stable ? 1 : 0) << "," << (r.within ? 1 : 0) << "," << r.rank << ","
+       << (int(s) == res.recommended ? 1 : 0) << "," << csv_num(r.cpu_per_tau.value) << ","
+       << csv_num(r.cpu_per_tau.error) << "," << csv_num(r.cpu_per_particle_tau.value) << ","
+       << csv_num(r.cpu_per_particle_tau.error) << "," << csv_num(sr.balance) << ","
+       << csv_num(sr.balance_err) << "," << csv_num(sr.step_correlation) << "," << sr.steady_failed
+       << "," << sr.decorrelated_failed;
+    for (std::size_t o = 0; o < plan.observables.size(); ++o) {
+      if (o >= r.observables.size()) {
+        for (int c = 0; c < 17; ++c)
+          os << ",";
+        continue;
+      }
+      const auto& x = r.observables[o];
+      os << "," << csv_num(x.mean.value) << "," << csv_num(x.mean.error) << ","
+         << csv_num(x.difference.value) << "," << csv_num(x.difference.error) << ","
+         << analysis::error_source_name(x.source) << "," << csv_num(x.floor) << "," << csv_num(x.z)
+         << "," << csv_num(x.block_std.value) << "," << csv_num(x.block_std.error) << ","
+         << csv_num(x.replica_std.value) << "," << csv_num(x.replica_std.error) << ","
+         << csv_num(x.block_std_ratio.value) << "," << csv_num(x.block_std_ratio.error) << ","
+         << csv_num(x.replica_std_ratio.value) << "," << csv_num(x.replica_std_ratio.error) << ","
+         << csv_num(x.tau.value) << "," << csv_num(x.tau.error);
+    }
+    std::string why = r.stable ? "" : r.why_unstable;
+    std::replace(why.begin(), why.end(), ',', ';');
+    std::replace(why.begin(), why.end(), '\n', ' ');
+    os << "," << why << "\n";
+  }
+  return os.str();
+}
+
+void write_h5(const std::string& path, const ComparePlan& plan,
+              const std::vector<SettingRuns>& runs, const analysis::CompareResult& res) {
+  H5Writer w(path);
+  w.attr("/", "compare_file", plan.path);
+  w.attr("/", "reference", plan.settings[plan.reference].label);
+  w.attr("/", "replicas", plan.replicas);
+  w.attr("/", "tolerance_sigma", plan.tolerance_sigma);
+  w.attr("/", "recommended",
+         res.recommended >= 0 ? plan.settings[std::size_t(res.recommended)].label : "");
+  w.attr("/", "base_scene", plan.base.text());
+  for (std::size_t s = 0; s < res.settings.size(); ++s) {
+    const auto& r = res.settings[s];
+    const auto& sr = runs[s];
+    const std::string g = "/settings/" + r.label;
+    w.group(g);
+    w.attr(g, "index", static_cast<std::int64_t>(s));
+    w.attr(g, "integrator", sr.integrator);
+    w.attr(g, "ensemble", sr.ensemble);
+    w.attr(g, "N", plan.settings[s].n);
+    w.attr(g, "stable", static_cast<std::int64_t>(r.stable));
+    w.attr(g, "why_unstable", r.why_unstable);
+    w.attr(g, "within", static_cast<std::int64_t>(r.within));
+    w.attr(g, "rank", static_cast<std::int64_t>(r.rank));
+    w.attr(g, "cpu_per_tau", r.cpu_per_tau.value);
+    w.attr(g, "cpu_per_tau_err", r.cpu_per_tau.error);
+    w.attr(g, "cpu_per_particle_tau", r.cpu_per_particle_tau.value);
+    w.attr(g, "energy_balance", sr.balance);
+    w.attr(g, "energy_balance_err", sr.balance_err);
+    w.attr(g, "force_step_correlation", sr.step_correlation);
+    if (!sr.replicas.empty())
+      w.attr(g, "scene", sr.replicas.front().scene_text);
+    for (std::size_t o = 0; o < r.observables.size(); ++o) {
+      const auto& x = r.observables[o];
+      const std::string og = g + "/" + plan.observables[o];
+      w.group(og);
+      w.attr(og, "mean", x.mean.value);
+      w.attr(og, "mean_err", x.mean.error);
+      w.attr(og, "difference", x.difference.value);
+      w.attr(og, "difference_err", x.difference.error);
+      w.attr(og, "difference_error_source", analysis::error_source_name(x.source));
+      w.attr(og, "floor", x.floor);
+      w.attr(og, "z", x.z);
+      w.attr(og, "within", static_cast<std::int64_t>(x.within));
+      w.attr(og, "block_std", x.block_std.value);
+      w.attr(og, "block_std_err", x.block_std.error);
+      w.attr(og, "replica_std", x.replica_std.value);
+      w.attr(og, "replica_std_err", x.replica_std.error);
+      w.attr(og, "block_std_ratio", x.block_std_ratio.value);
+      w.attr(og, "block_std_ratio_err", x.block_std_ratio.error);
+      w.attr(og, "replica_std_ratio", x.replica_std_ratio.value);
+      w.attr(og, "replica_std_ratio_err", x.replica_std_ratio.error);
+      w.attr(og, "tau", x.tau.value);
+      w.attr(og, "tau_err", x.tau.error);
+    }
+  }
+  w.commit();
+}
+
+std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& runs,
+                      const analysis::CompareResult& res, bool plotted) {
+  const std::string ref = plan.settings[plan.reference].label;
+  std::string md = "# Comparison `" + plan.name + "`\n\n";
+  md += std::to_string(plan.settings.size()) + " settings, " + std::to_string(plan.replicas) +
+        " replica" + (plan.replicas > 1 ? "s" : "") + " each, against the reference `" + ref +
+        "`. ";
+  md += plan.init.empty()
+            ? "Replica k of every setting continues from prepared state k (a run of t = " +
+                  short_num(plan.prepare_t) + " from a random state with seed " +
+                  std::to_string(plan.seed) +
+                  " + k, one per N), so differences are paired "
+                  "replica by replica.\n\n"
+            : "Every setting continues from `" + plan.init + "`.\n\n";
+  md += "Observables: " + join(plan.observables) +
+        ". A setting is within tolerance when it is "
+        "stable and, for every observable, |difference| <= " +
+        short_num(plan.tolerance_sigma) + " x its error";
+  bool any_rel = false;
+  for (std::size_t o = 0; o < plan.observables.size(); ++o)
+    if (plan.relative_tolerance[o] > 0.0) {
+      md += std::string(any_rel ? ", " : " or, relative to the reference, ") + plan.observables[o] +
+            " <= " + short_num(plan.relative_tolerance[o]);
+      any_rel = true;
+    }
+  md +=
+      ". Errors of a difference come from the scatter of the paired differences over the "
+      "replicas with 3 replicas or more, else from the block errors of the paired difference "
+      "series (the table says which). The floor is the reference's own error. CPU cost is "
+      "each run's CPU seconds (its `jamflow run` process, one thread) over its simulated time "
+      "(t_eq + t_av), per tau_0 and per particle and tau_0.\n\n";
+
+  // Work-precision.
+  md += "## Work and precision\n\n";
+  std::vector<std::vector<std::string>> rows;
+  for (std::size_t s = 0; s < res.settings.size(); ++s) {
+    const auto& r = res.settings[s];
+    std::vector<std::string> row = {
+        r.label + (s == plan.reference ? " (reference)" : ""),
+        runs[s].integrator,
+        r.ensemble,
+        r.stable ? "stable" : "**unstable**",
+        r.ran ? pm(r.cpu_per_particle_tau.value, r.cpu_per_particle_tau.error, 3) : "—",
+        r.ran ? std::to_string(r.rank) : "—"};
+    for (std::size_t o = 0; o < plan.observables.size(); ++o) {
+      if (o >= r.observables.size()) {
+        row.push_back("—");
+        continue;
+      }
+      const auto& x = r.observables[o];
+      row.push_back(s == plan.reference
+                        ? pm(x.mean.value, x.mean.error) + " (floor " + num(x.floor, 2) + ")"
+                        : num(x.difference.value, 3) + " ± " + num(x.difference.error, 2) + " (" +
+                              num(x.z, 2) + "σ, " + error_source_name(x.source) + ")");
+    }
+    row.push_back(r.within ? "yes" : "no");
+    rows.push_back(std::move(row));
+  }
+  std::vector<std::string> header = {
+      "setting", "integrator", "ensemble", "verdict", "CPU s per particle·τ0", "rank by error"};
+  for (const auto& o : plan.observables)
+    header.push_back("Δ" + o + " (reference: value)");
+  header.push_back("within");
+  md += markdown_table(header, rows) + "\n";
+  if (plotted) {
+    md +=
+        "Work–precision plots (|difference| against CPU seconds per particle·τ0, log–log; "
+        "dashed: the floor; crosses: unstable settings): ";
+    for (std::size_t o = 0; o < plan.observables.size(); ++o)
+      md += std::string(o ? ", " : "") + "`work_precision_" + plan.observables[o] + ".png`";
+    md += ".\n\n";
+  } else {
+    md += "Plots: not produced (see the warnings).\n\n";
+  }
+
+  // Stability.
+  md += "## Stability\n\n";
+  rows.clear();
+  for (std::size_t s = 0; s < res.settings.size(); ++s) {
+    const auto& r = res.settings[s];
+    const auto& sr = runs[s];
+    rows.push_back(
+        {r.label, r.stable ? "stable" : "unstable: " + r.why_unstable,
+         std::isfinite(sr.balance) ? pm(sr.balance, sr.balance_err, 3) : "—",
+         std::isfinite(sr.step_correlation) ? num(sr.step_correlation, 3) : "—",
+         std::to_string(sr.steady_failed) + " / " + std::to_string(sr.replicas.size()),
+         std::to_string(sr.decorrelated_failed) + " / " + std::to_string(sr.replicas.size())});
+  }
+  md += markdown_table({"setting", "verdict", "energy balance", "force step correlation",
+                        "not steady", "blocks < 2τ"},
+                       rows) +
+        "\n";
+
+  // Fluctuations.
+  md += "## Fluctuations\n\n";
+  md += "Block std: the standard deviation of the " + std::to_string(plan.blocks) +
+        " block means (mean over replicas); replica std: of the replica means (2 replicas or "
+        "more). Ratios are the setting's over the reference's (`" +
+        ref + "`, " + res.settings[plan.reference].ensemble +
+        "), with errors propagated as independent "
+        "relative errors. τ: the integrated autocorrelation time.\n\n";
+  rows.clear();
+  for (std::size_t s = 0; s < res.settings.size(); ++s) {
+    const auto& r = res.settings[s];
+    for (std::size_t o = 0; o < r.observables.size(); ++o) {
+      const auto& x = r.observables[o];
+      auto cell = [](const analysis::Estimate& e, int d) {
+        return std::isfinite(e.value) ? pm(e.value, e.error, d) : std::string("—");
+      };
+      rows.push_back({r.label, r.ensemble, plan.observables[o], cell(x.block_std, 3),
+                      cell(x.replica_std, 3), cell(x.block_std_ratio, 3),
+                      cell(x.replica_std_ratio, 3), cell(x.tau, 3)});
+    }
+  }
+  md += markdown_table({"setting", "ensemble", "observable", "block std", "replica std",
+                        "block std / reference", "replica std / reference", "τ"},
+                       rows) +
+        "\n";
+
+  int short_blocks = 0, drifting = 0, total = 0;
+  for (const auto& sr : runs) {
+    short_blocks += sr.decorrelated_failed;
+    drifting += sr.steady_failed;
+    total += static_cast<int>(sr.replicas.size());
+  }
+  if (drifting > 0)
+    md += std::to_string(drifting) + " of " + std::to_string(total) +
+          " runs failed the steady verdict (their windows drift): their settings are not "
+          "recommended; lengthen [run] t_eq or the preparation.\n\n";
+  if (short_blocks > 0)
+    md += std::to_string(short_blocks) + " of " + std::to_string(total) +
+          " runs have blocks shorter than 2 τ, so their block errors are too small" +
+          (plan.replicas >= 3 ? std::string(": the differences' errors above come from the replica "
+                                            "scatter, which does not rely on the blocks")
+                              : std::string(", and so are the differences' errors above (fewer "
+                                            "than 3 replicas): lengthen [run] t_av or add "
+                                            "replicas")) +
+          ".\n\n";
+
+  // Recommendation.
+  md += "## Recommendation\n\n";
+  if (res.recommended >= 0) {
+    const auto& r = res.settings[std::size_t(res.recommended)];
+    md += "The cheapest setting within tolerance is **" + r.label + "** (" +
+          runs[std::size_t(res.recommended)].integrator + ", " +
+          num(r.cpu_per_particle_tau.value, 3) + " CPU s per particle·τ0";
+    const auto& refr = res.settings[plan.reference];
+    if (std::size_t(res.recommended) != plan.reference && refr.cpu_per_particle_tau.value > 0.0)
+      md += ", " + num(refr.cpu_per_particle_tau.value / r.cpu_per_particle_tau.value, 3) +
+            "x cheaper than the reference";
+    md += ").\n\n";
+  } else {
+    md +=
+        "No setting is within tolerance (the reference itself did not finish stable and "
+        "steady).\n\n";
+  }
+  if (res.unstable.empty()) {
+    md += "Unstable settings: none.\n";
+  } else {
+    md += "Unstable settings:\n\n";
+    for (std::size_t s : res.unstable)
+      md += "- " + res.settings[s].label + ": " + res.settings[s].why_unstable + "\n";
+  }
+  return md;
+}
+
+}  // namespace
+
+int run_compare(const ComparePlan& plan, const StudyOptions& options) {
+  ensure_dir(options.out_dir);
+  const std::size_t n_set = plan.settings.size();
+  const auto k_rep = static_cast<std::size_t>(plan.replicas);
+  // Stage 1: one preparation per N and replica (seed + k), unless an init file starts them all.
+  std::map<std::pair<std::int64_t, std::size_t>, std::string> start;
+  if (plan.init.empty()) {
+    std::vector<RunRequest> requests;
+    std::vector<std::pair<std::int64_t, std::size_t>> keys;
+    const auto sizes = plan.sizes();
+    for (std::int64_t n : sizes) {
+      for (std::size_t k = 0; k < k_rep; ++k) {
+        RunRequest r;
+        r.label = (sizes.size() > 1 ? "prepare_N" + std::to_string(n) : std::string("prepare")) +
+                  "_r" + std::to_string(k);
+        r.scene = plan.prepare_scene(n).text();
+        r.seed = plan.seed + k;
+        r.window = false;
+        requests.push_back(std::move(r));
+        keys.emplace_back(n, k);
+      }
+    }
+    std::vector<DiagnosedRun> preps;
+    if (const auto status = run_stage("compare", "prepare", requests, options, preps, false))
+      return *status;
+    for (std::size_t q = 0; q < preps.size(); ++q)
+      if (preps[q].result.status == "complete" && !preps[q].final_xyz.empty())
+        start[keys[q]] = preps[q].final_xyz;
+      else if (!options.quiet)
+        std::fprintf(stderr, "compare: preparation %s did not finish: %s\n", preps[q].label.c_str(),
+                     preps[q].verdict_text().c_str());
+  } else {
+    for (const auto& s : plan.settings)
+      start[{s.n, 0}] = plan.init;
+  }
+
+  // Stage 2: every setting x replica from its prepared state.
+  std::vector<RunRequest> requests;
+  std::vector<std::pair<std::size_t, std::size_t>> index;
+  for (std::size_t s = 0; s < n_set; ++s) {
+    for (std::size_t k = 0; k < k_rep; ++k) {
+      const auto it = start.find({plan.settings[s].n, k});
+      if (it == start.end())
+        continue;  // its preparation failed: reported above, and the setting did not run
+      RunRequest r;
+      r.label = plan.settings[s].label + "_r" + std::to_string(k);
+      Scene scene = plan.setting_scene(s);
+      r.scene = scene.text();
+      r.seed = plan.seed + k;
+      r.init = it->second;
+      r.window = false;
+      const toml::table* run = scene.table("run");
+      const toml::node* budget = run ? run->get("max_force_evaluations") : nullptr;
+      r.budget = budget && budget->is_integer() ? budget->as_integer()->get() : 0;
+      requests.push_back(std::move(r));
+      index.emplace_back(s, k);
+    }
+  }
+  std::vector<DiagnosedRun> done;
+  if (const auto status = run_stage("compare", "settings", requests, options, done, true))
+    return *status;
+  if (sweep::mpi_launched() && sweep::launched_rank() != 0)
+    return 0;
+
+  std::vector<SettingRuns> runs(n_set);
+  for (std::size_t s = 0; s < n_set; ++s) {
+    const Scene scene = plan.setting_scene(s);
+    runs[s].integrator = scene.section("integrator").text("kind", "?");
+    runs[s].ensemble = scene.section("ensemble").text("kind", "?");
+  }
+  for (std::size_t q = 0; q < done.size(); ++q)
+    runs[index[q].first].replicas.push_back(std::move(done[q]));
+  for (auto& sr : runs)
+    diagnostics_of(sr);
+  const analysis::CompareResult res = analysis::compare(analysis_input(plan, runs));
+
+  write_text(options.out_dir + "/table.csv", table_csv(plan, runs, res));
+  write_h5(options.out_dir + "/compare.h5", plan, runs, res);
+  const bool plotted =
+      run_plot("compare/plot.py", {options.out_dir + "/table.csv", options.out_dir}, options);
+  write_text(options.out_dir + "/report.md", report_md(plan, runs, res, plotted));
+  if (!options.quiet) {
+    std::printf("compare %s: %zu settings -> %s/report.md\n", plan.name.c_str(), n_set,
+                options.out_dir.c_str());
+    if (res.recommended >= 0)
+      std::printf("  cheapest within tolerance: %s\n",
+                  plan.settings[std::size_t(res.recommended)].label.c_str());
+    for (std::size_t s : res.unstable)
+      std::printf("  unstable: %s\n", plan.settings[s].label.c_str());
+  }
+  return 0;
+}
+
+int compare_main(const std::vector<std::string>& args) {
+  CLI::App app{"Compare methods (integrators, ensembles, ...) on a scene against a reference.",
+               "jamflow compare"};
+  std::string path;
+  StudyOptions o;
+  app.add_option("compare", path, "compare file (TOML)")->required();
+  app.add_option("--out", o.out_dir, "output folder (default: <stem>.compare beside the file)")
+      ->check(non_empty_path());
+  app.add_option("-j,--jobs", o.jobs, "runs at once, one thread each (default: the cores)")
+      ->check(CLI::Range(1, 4096));
+  app.add_flag("--dry-run", o.dry_run, "count the runs and their expected CPU-hours");
+  app.add_flag("--slurm", o.slurm, "write a Slurm job array for the next unfinished stage");
+  app.add_option("--time", o.slurm_time, "Slurm time limit of each array task (--slurm)");
+  app.add_option("--array-size", o.slurm_array_size, "Slurm array tasks (--slurm)")
+      ->check(CLI::Range(1, 100000));
+  app.add_option("--partition", o.slurm_partition, "Slurm partition (--slurm)");
+  app.add_flag("--no-plots", o.no_plots, "no PNG plots");
+  app.add_flag("-q,--quiet", o.quiet, "no progress lines");
+  std::vector<std::string> rev(args.rbegin(), args.rend());
+  try {
+    app.parse(rev);
+  } catch (const CLI::ParseError& e) {
+    return parse_error_exit(app, e, "jamflow compare");
+  }
+  if (o.slurm)
+    sweep::check_slurm_time(o.slurm_time);
+  const ComparePlan plan = load_compare(path);
+  if (o.out_dir.empty())
+    o.out_dir =
+        (fs::path(path).parent_path() / (plan.name + ".compare")).lexically_normal().string();
+  if (o.out_dir.empty())
+    o.out_dir = ".";
+  o.command = "jamflow compare " + path + " --out " + o.out_dir;
+  return run_compare(plan, o);
+}
+
+}  // namespace jamflow::studies

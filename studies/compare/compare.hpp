@@ -1,0 +1,71 @@
+// `jamflow compare COMPARE.toml`: a methodology comparison on any scene. A base scene, a
+// preparation (a run that reaches a steady state, or an XYZ start), the settings to compare
+// (typed overrides of the base scene: integrator and its parameters, ensemble, alpha_r, N, shear
+// rate), a reference setting, replicas and observables. Replica k of every setting continues
+// from the same prepared state k (prepared with seed base + k), so settings are paired replica
+// by replica. Both stages run on the sweep engine (studies/diagnostics.hpp run_stage: local
+// cores, MPI ranks, Slurm arrays, resume, --dry-run); the numbers come from analysis/compare.hpp,
+// and the report (OUT/compare.h5, OUT/table.csv, PNG plots, OUT/report.md) renders them.
+#pragma once
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "lib/config.hpp"
+#include "studies/study.hpp"
+
+namespace jamflow::studies {
+
+// Observables a comparison may name: the sampled series (README "Output") and eta = sigma_xy /
+// gdot.
+const std::vector<std::string>& compare_observables();
+
+struct CompareSetting {
+  std::string label;
+  toml::table overrides;  // section -> table of keys, applied to the base scene
+  std::int64_t n = 0;     // particles (the base scene's N unless the setting sets system.N)
+};
+
+struct ComparePlan {
+  std::string path;  // the compare file
+  std::string name;  // its stem
+  Scene base;
+  // The preparation: an XYZ start (absolute path), or a run of length prepare_t from a random
+  // state (one per N and replica) with the [prepare] overrides.
+  std::string init;
+  double prepare_t = 0.0;
+  std::optional<double> prepare_sample_every;
+  toml::table prepare_overrides;
+  std::vector<CompareSetting> settings;
+  std::size_t reference = 0;
+  std::int64_t replicas = 1;
+  std::uint64_t seed = 1;  // the base scene's system.seed: replica k prepares with seed + k
+  std::vector<std::string> observables;
+  double tolerance_sigma = 2.0;
+  std::vector<double> relative_tolerance;  // per observable (0: none)
+  toml::table run;                         // [run] keys for every setting (t_eq, t_av, ...)
+  std::int64_t blocks = 20;
+
+  // The scene of a setting (base + overrides + [run]) and of the preparation at N particles.
+  Scene setting_scene(std::size_t s) const;
+  Scene prepare_scene(std::int64_t n) const;
+  // The distinct N of the settings, in order of first appearance.
+  std::vector<std::int64_t> sizes() const;
+};
+
+// Reads and checks a compare file: every setting's scene and the preparation's go through the
+// checks of `jamflow run`, so a bad key or value is one ConfigError line naming the setting and
+// the key before anything runs.
+ComparePlan load_compare(const std::string& path);
+ComparePlan parse_compare(const std::string& text, const std::string& source,
+                          const std::string& base_dir);
+
+// Runs (or resumes, dry-runs, writes the Slurm array of) the comparison into options.out_dir
+// and writes the report; returns the exit status.
+int run_compare(const ComparePlan& plan, const StudyOptions& options);
+
+// `jamflow compare ...` (args are the words after "compare").
+int compare_main(const std::vector<std::string>& args);
+
+}  // namespace jamflow::studies
