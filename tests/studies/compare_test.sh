@@ -1,0 +1,193 @@
+#!/usr/bin/env bash
+# `jamflow compare` end to end on a small scene (N = 64, harmonic, constant volume, gdot = 1e-2):
+# three integrator settings (Euler dt = 0.05 as the reference, Euler dt = 0.2, RKC), Euler at
+# dt = 1 (twice the step at which Euler first oscillates, SPEC §4) and the reference's integrator
+# at constant pressure, 3 replicas each from 3 prepared states.
+#  - bad compare files: one line on stderr naming the key, exit 2, nothing written;
+#  - the table has a row per setting; the unstable setting is flagged and not recommended;
+#    the ranking follows the paired errors; report, HDF5 and plots are written;
+#  - --dry-run counts the stages; a SIGTERM stops the sweep, and the same command again does
+#    not redo the runs that had finished.
+# usage: compare_test.sh JAMFLOW_BINARY
+set -uo pipefail
+jamflow="$(realpath "$1")"
+work="$(mktemp -d /tmp/jamflow-compare-test.XXXXXX)"
+trap 'rm -rf "$work"' EXIT
+cd "$work"
+passed=0
+failed=0
+ok() { echo "ok: $*"; passed=$((passed + 1)); }
+bad() { echo "FAILED: $*"; failed=$((failed + 1)); }
+
+# $1: file name, $2: t_av of the settings.
+write_compare() {
+  cat >"$1" <<TOML
+reference = "euler-0.05"
+replicas = 3
+observables = ["sigma_xy", "pressure"]
+
+[base.system]
+N = 64
+phi = 0.60
+seed = 1
+[base.ensemble]
+kind = "constant_volume"
+[base.shear]
+rate = 1e-2
+[base.integrator]
+kind = "euler"
+dt = 0.05
+[base.run]
+t_eq = 0.0
+t_av = 100.0
+sample_every = 1.0
+
+[prepare]
+t = 200.0
+
+[run]
+t_eq = 20.0
+t_av = $2
+sample_every = 1.0
+
+[[setting]]
+label = "euler-0.05"
+
+[[setting]]
+label = "euler-0.2"
+integrator.dt = 0.2
+
+[[setting]]
+label = "rkc"
+integrator = { kind = "rkc" }
+
+[[setting]]
+label = "euler-1"
+integrator.dt = 1.0
+
+[[setting]]
+label = "euler-0.05-np"
+ensemble = { kind = "constant_pressure", pressure = 0.01 }
+TOML
+}
+write_compare small.toml 200.0
+
+# ---- Bad files: one line naming the key, exit 2, before anything runs.
+expect_error() {  # $1: what, $2: a grep pattern the message must match; the file is bad.toml
+  "$jamflow" compare bad.toml --out bad.out >out.txt 2>err.txt
+  local rc=$?
+  if [ "$rc" -eq 2 ] && [ "$(wc -l <err.txt)" -eq 1 ] && grep -q -- "$2" err.txt &&
+    [ ! -e bad.out ]; then
+    ok "bad file ($1): $(cat err.txt)"
+  else
+    bad "bad file ($1): exit $rc, stderr '$(cat err.txt)', output folder $([ -e bad.out ] && echo written || echo absent)"
+  fi
+}
+sed 's/^reference = .*/reference = "nope"/' small.toml >bad.toml
+expect_error "unknown reference" 'reference = .nope.; allowed the label of a setting'
+sed 's/^observables = .*/observables = ["sigma_xy", "volume"]/' small.toml >bad.toml
+expect_error "unknown observable" '.volume. is not allowed; allowed sigma_xy'
+sed 's/^replicas = .*/replicas = 0/' small.toml >bad.toml
+expect_error "replicas out of range" 'replicas = 0 is out of range'
+sed 's/^integrator.dt = 0.2/integrator.dt = -0.2/' small.toml >bad.toml
+expect_error "a setting's scene value" "'euler-0.2'.*dt.*-0.2"
+sed 's/^integrator.dt = 0.2/system.phi = 0.5/' small.toml >bad.toml
+expect_error "a key a setting may not set" "system.phi = 0.5 cannot be overridden here; allowed"
+sed 's/^label = "rkc"/label = "r k c"/' small.toml >bad.toml
+expect_error "a bad label" 'label = .r k c.; allowed'
+sed 's/^t = 200.0/init = "start.xyz"/' small.toml >bad.toml
+expect_error "replicas from one init file" "replicas = 3 with \[prepare\] init"
+sed 's/^t_av = 200.0/t_av = 0.0/' small.toml >bad.toml
+expect_error "run length" '\[run\] t_av = 0 is out of range'
+
+# ---- Dry run: both stages counted, nothing run.
+dry=$("$jamflow" compare small.toml --out dry.out --dry-run 2>&1)
+if echo "$dry" | grep -q "compare (stage prepare): 3 points" &&
+  echo "$dry" | grep -q "compare (stage settings): 15 points" &&
+  [ ! -d dry.out/settings/runs/points ]; then
+  ok "dry-run counts 3 preparations and 15 runs"
+else
+  bad "dry-run: $dry"
+fi
+
+# ---- The whole comparison.
+"$jamflow" compare small.toml --out full -j 2 -q >full.txt 2>full.err
+rc=$?
+[ "$rc" -eq 0 ] && ok "compare exits 0" || bad "compare exit $rc: $(tail -3 full.err)"
+for f in table.csv compare.h5 report.md work_precision_sigma_xy.png work_precision_pressure.png; do
+  [ -s "full/$f" ] && ok "wrote $f" || bad "no full/$f"
+done
+/usr/bin/python3 - full <<'PY' && ok "table: a row per setting, euler-1 flagged, ranking by paired error" || bad "table checks"
+import csv, math, sys
+rows = list(csv.DictReader(open(sys.argv[1] + "/table.csv")))
+labels = [r["setting"] for r in rows]
+assert labels == ["euler-0.05", "euler-0.2", "rkc", "euler-1", "euler-0.05-np"], labels
+by = {r["setting"]: r for r in rows}
+assert by["euler-1"]["stable"] == "0", by["euler-1"]
+assert by["euler-1"]["recommended"] == "0" and by["euler-1"]["within"] == "0"
+for s in ("euler-0.05", "euler-0.2", "rkc"):
+    assert by[s]["stable"] == "1", s
+assert sum(int(r["recommended"]) for r in rows) == 1
+assert by["euler-0.05"]["reference"] == "1" and by["euler-0.05"]["rank"] == "1"
+# The rank orders the settings by their worst |difference| / floor over the observables.
+def worst(r):
+    return max(abs(float(r[o + "_diff"])) / float(r[o + "_floor"]) for o in ("sigma_xy", "pressure"))
+ranked = sorted(rows, key=lambda r: int(r["rank"]))
+w = [worst(r) for r in ranked]
+assert all(a <= b for a, b in zip(w, w[1:])), list(zip([r["setting"] for r in ranked], w))
+# Errors of the differences come from the replica scatter (3 replicas).
+assert by["rkc"]["sigma_xy_diff_source"] == "replica scatter"
+# The recommended setting is the cheapest of those within tolerance.
+within = [r for r in rows if r["within"] == "1"]
+best = min(within, key=lambda r: float(r["cpu_per_particle_tau"]))
+assert best["recommended"] == "1", best["setting"]
+PY
+grep -q "^- euler-1: " full/report.md && grep -q "cheapest setting within tolerance is \*\*" full/report.md &&
+  ok "report lists euler-1 as unstable and recommends a setting" || bad "report: $(tail -5 full/report.md)"
+/usr/bin/python3 -c "
+import h5py, sys
+f = h5py.File('full/compare.h5', 'r')
+assert set(f['settings'].keys()) == {'euler-0.05', 'euler-0.2', 'rkc', 'euler-1', 'euler-0.05-np'}
+assert f['settings/euler-1'].attrs['stable'] == 0
+assert 'block_std_ratio' in f['settings/euler-0.05-np/pressure'].attrs
+" && ok "compare.h5 has a group per setting" || bad "compare.h5"
+
+# ---- Resume after SIGTERM: longer settings runs, one at a time.
+write_compare long.toml 3000.0
+"$jamflow" compare long.toml --out resume -j 1 -q >resume1.txt 2>resume1.err &
+pid=$!
+done_files=()
+for _ in $(seq 1 600); do
+  mapfile -t done_files < <(ls resume/settings/runs/points/*/r0.h5 2>/dev/null)
+  [ "${#done_files[@]}" -ge 2 ] && break
+  sleep 0.1
+done
+kill -TERM "$pid"
+wait "$pid"
+rc=$?
+if [ "$rc" -eq 143 ] && [ "${#done_files[@]}" -ge 2 ]; then
+  ok "SIGTERM stops compare with 143 after ${#done_files[@]} finished settings runs"
+else
+  bad "SIGTERM: exit $rc with ${#done_files[@]} finished runs"
+fi
+declare -A stamp
+for f in "${done_files[@]}"; do stamp[$f]=$(stat -c '%i %Y.%y' "$f"); done
+started_before=$(grep -c " started" resume/settings/runs/journal.log)
+"$jamflow" compare long.toml --out resume -j 2 -q >resume2.txt 2>resume2.err
+rc=$?
+same=1
+for f in "${done_files[@]}"; do
+  [ "$(stat -c '%i %Y.%y' "$f")" = "${stamp[$f]}" ] || same=0
+  name=$(basename "$(dirname "$f")")
+  # After the first launch's lines, no "started" or "resumed" line for a finished run.
+  tail -n +"$((started_before + 1))" resume/settings/runs/journal.log |
+    grep -q "^[^ ]* $name r0 \(started\|resumed\)" && same=0
+done
+if [ "$rc" -eq 0 ] && [ "$same" -eq 1 ] && [ "$(tail -n +2 resume/table.csv | wc -l)" -eq 5 ]; then
+  ok "rerun finishes (exit 0, 5 rows) without redoing the ${#done_files[@]} finished runs"
+else
+  bad "rerun: exit $rc, finished runs untouched: $same; $(tail -3 resume2.err)"
+fi
+
+echo "$passed passed, $failed failed"
+[ "$failed" -eq 0 ]
