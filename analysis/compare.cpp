@@ -32,10 +32,6 @@ MeanStd mean_std(const std::vector<double>& x) {
   return m;
 }
 
-// Below three replicas a standard deviation is too uncertain to be the error (its own relative
-// error is 1/sqrt(2(K-1)): 71% at K = 2), so the block errors are used instead.
-constexpr std::size_t kMinReplicasForScatter = 3;
-
 // The error of a mean over replicas: their scatter from 3 replicas on, else the block errors
 // propagated to the mean.
 Estimate replica_mean(const std::vector<double>& means, const std::vector<double>& block_errors,
