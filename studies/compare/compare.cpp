@@ -754,6 +754,28 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
                        rows) +
         "\n";
 
+  // Verdicts that weaken the comparison.
+  int short_blocks = 0, drifting = 0, total = 0;
+  for (const auto& sr : runs) {
+    short_blocks += sr.decorrelated_failed;
+    drifting += sr.steady_failed;
+    total += static_cast<int>(sr.replicas.size());
+  }
+  if (drifting > 0)
+    md += std::to_string(drifting) + " of " + std::to_string(total) +
+          " runs failed the steady verdict (their windows drift): their settings are not "
+          "recommended; lengthen [run] t_eq or the preparation.\n\n";
+  if (short_blocks > 0)
+    md += std::to_string(short_blocks) + " of " + std::to_string(total) +
+          " runs have blocks shorter than 2 τ, so their block errors are too small" +
+          (std::size_t(plan.replicas) >= analysis::kMinReplicasForScatter
+               ? std::string(": the differences' errors above come from the replica "
+                             "scatter, which does not rely on the blocks")
+               : std::string(", and so are the differences' errors above (too "
+                             "few replicas for their scatter): lengthen [run] t_av or add "
+                             "replicas")) +
+          ".\n\n";
+
   // Fluctuations.
   md += "## Fluctuations\n\n";
   md += "Block std: the standard deviation of the " + std::to_string(plan.blocks) +
@@ -779,27 +801,6 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
                         "block std / reference", "replica std / reference", "τ"},
                        rows) +
         "\n";
-
-  int short_blocks = 0, drifting = 0, total = 0;
-  for (const auto& sr : runs) {
-    short_blocks += sr.decorrelated_failed;
-    drifting += sr.steady_failed;
-    total += static_cast<int>(sr.replicas.size());
-  }
-  if (drifting > 0)
-    md += std::to_string(drifting) + " of " + std::to_string(total) +
-          " runs failed the steady verdict (their windows drift): their settings are not "
-          "recommended; lengthen [run] t_eq or the preparation.\n\n";
-  if (short_blocks > 0)
-    md += std::to_string(short_blocks) + " of " + std::to_string(total) +
-          " runs have blocks shorter than 2 τ, so their block errors are too small" +
-          (std::size_t(plan.replicas) >= analysis::kMinReplicasForScatter
-               ? std::string(": the differences' errors above come from the replica "
-                             "scatter, which does not rely on the blocks")
-               : std::string(", and so are the differences' errors above (too "
-                             "few replicas for their scatter): lengthen [run] t_av or add "
-                             "replicas")) +
-          ".\n\n";
 
   // Recommendation.
   md += "## Recommendation\n\n";

@@ -8,9 +8,11 @@
 #    the ranking follows the paired errors; report, HDF5 and plots are written;
 #  - --dry-run counts the stages; a SIGTERM stops the sweep, and the same command again does
 #    not redo the runs that had finished.
-# usage: compare_test.sh JAMFLOW_BINARY
+#  - the example examples/compare_rkc_euler.toml is a valid compare file (its dry run).
+# usage: compare_test.sh JAMFLOW_BINARY SOURCE_DIR
 set -uo pipefail
 jamflow="$(realpath "$1")"
+source_dir="$(realpath "$2")"
 work="$(mktemp -d /tmp/jamflow-compare-test.XXXXXX)"
 trap 'rm -rf "$work"' EXIT
 cd "$work"
@@ -110,6 +112,10 @@ else
   bad "dry-run: $dry"
 fi
 
+example=$("$jamflow" compare "$source_dir/examples/compare_rkc_euler.toml" --out example --dry-run 2>&1)
+echo "$example" | grep -q "compare (stage settings): 15 points" &&
+  ok "the example's dry run counts its 15 runs" || bad "example: $example"
+
 # ---- The whole comparison.
 "$jamflow" compare small.toml --out full -j 2 -q >full.txt 2>full.err
 rc=$?
@@ -172,7 +178,7 @@ else
 fi
 declare -A stamp
 for f in "${done_files[@]}"; do stamp[$f]=$(stat -c '%i %Y.%y' "$f"); done
-started_before=$(grep -c " started" resume/settings/runs/journal.log)
+lines_before=$(wc -l <resume/settings/runs/journal.log)
 "$jamflow" compare long.toml --out resume -j 2 -q >resume2.txt 2>resume2.err
 rc=$?
 same=1
@@ -180,7 +186,7 @@ for f in "${done_files[@]}"; do
   [ "$(stat -c '%i %Y.%y' "$f")" = "${stamp[$f]}" ] || same=0
   name=$(basename "$(dirname "$f")")
   # After the first launch's lines, no "started" or "resumed" line for a finished run.
-  tail -n +"$((started_before + 1))" resume/settings/runs/journal.log |
+  tail -n +"$((lines_before + 1))" resume/settings/runs/journal.log |
     grep -q "^[^ ]* $name r0 \(started\|resumed\)" && same=0
 done
 if [ "$rc" -eq 0 ] && [ "$same" -eq 1 ] && [ "$(tail -n +2 resume/table.csv | wc -l)" -eq 5 ]; then
