@@ -173,7 +173,10 @@ Scene ComparePlan::prepare_scene(std::int64_t n) const {
   double every = prepare_sample_every    ? *prepare_sample_every
                  : se && se->is_number() ? se->value<double>().value_or(1.0)
                                          : 1.0;
-  const double half = every * std::max(10.0, std::ceil(0.5 * prepare_t / every));
+  // At least one sample per block in the window (the run's check), else half of t.
+  const toml::node* b = r.get("blocks");
+  const double blocks = b && b->is_integer() ? double(b->as_integer()->get()) : 20.0;
+  const double half = every * std::max(blocks, std::ceil(0.5 * prepare_t / every));
   for (const char* k : {"replicas", "target_error", "max_time", "max_force_evaluations"})
     r.erase(k);
   r.insert_or_assign("sample_every", every);
@@ -234,7 +237,7 @@ ComparePlan parse_compare(const std::string& text, const std::string& source,
       plan.seed = static_cast<std::uint64_t>(s->as_integer()->get());
 
   // Top-level keys.
-  ConfigSection top_keys("compare", &top);
+  ConfigSection top_keys("compare file", &top);
   plan.replicas = top_keys.integer("replicas", 1, 1, 1000);
   plan.tolerance_sigma = top_keys.number("tolerance_sigma", 2.0, Range::positive());
   const std::vector<std::string>& allowed_obs = compare_observables();
@@ -474,7 +477,9 @@ analysis::CompareInput analysis_input(const ComparePlan& plan,
       si.steady = si.steady && !(steady != v.end() && steady->second.rfind("fail", 0) == 0);
       all_complete = all_complete && r.result.status == "complete";
     }
-    if (all_complete) {
+    // Pairs need every replica: a setting whose preparation failed for some replica did not run
+    // that replica, and is not analysed.
+    if (all_complete && runs[s].replicas.size() == static_cast<std::size_t>(plan.replicas)) {
       si.observables.resize(plan.observables.size());
       for (std::size_t k = 0; k < runs[s].replicas.size(); ++k) {
         const DiagnosedRun& r = runs[s].replicas[k];
@@ -660,7 +665,8 @@ void write_h5(const std::string& path, const ComparePlan& plan,
 }
 
 std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& runs,
-                      const analysis::CompareResult& res, bool plotted) {
+                      const analysis::CompareResult& res, bool plotted,
+                      const std::vector<DiagnosedRun>& preps) {
   const std::string ref = plan.settings[plan.reference].label;
   std::string md = "# Comparison `" + plan.name + "`\n\n";
   md += std::to_string(plan.settings.size()) + " settings, " + std::to_string(plan.replicas) +
@@ -673,9 +679,22 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
                   " + k, one per N), so differences are paired "
                   "replica by replica.\n\n"
             : "Every setting continues from `" + plan.init + "`.\n\n";
+  // A preparation that still drifts at its end leaves the rest of the transient to the
+  // settings' t_eq; one that did not finish leaves its replica out.
+  for (const DiagnosedRun& p : preps) {
+    const auto& v = p.result.summary.verdicts;
+    const auto steady = v.find("steady");
+    if (p.result.status != "complete")
+      md += "Preparation " + p.label + " did not finish (" + p.verdict_text() +
+            "): the settings that start from it are not analysed (to retry, remove its "
+            "folder under prepare/runs/points/ and run again).\n\n";
+    else if (steady != v.end() && steady->second.rfind("fail", 0) == 0)
+      md += "Preparation " + p.label + " still drifts in its second half (" + steady->second +
+            "): the settings' t_eq has to absorb the rest of its transient.\n\n";
+  }
   md += "Observables: " + join(plan.observables) +
         ". A setting is within tolerance when it is "
-        "stable and, for every observable, |difference| <= " +
+        "stable, steady (every replica) and, for every observable, |difference| <= " +
         short_num(plan.tolerance_sigma) + " x its error";
   bool any_rel = false;
   for (std::size_t o = 0; o < plan.observables.size(); ++o)
@@ -837,6 +856,7 @@ int run_compare(const ComparePlan& plan, const StudyOptions& options) {
   const auto k_rep = static_cast<std::size_t>(plan.replicas);
   // Stage 1: one preparation per N and replica (seed + k), unless an init file starts them all.
   std::map<std::pair<std::int64_t, std::size_t>, std::string> start;
+  std::vector<DiagnosedRun> preps;
   if (plan.init.empty()) {
     std::vector<RunRequest> requests;
     std::vector<std::pair<std::int64_t, std::size_t>> keys;
@@ -853,7 +873,6 @@ int run_compare(const ComparePlan& plan, const StudyOptions& options) {
         keys.emplace_back(n, k);
       }
     }
-    std::vector<DiagnosedRun> preps;
     if (const auto status = run_stage("compare", "prepare", requests, options, preps, false))
       return *status;
     for (std::size_t q = 0; q < preps.size(); ++q)
@@ -911,7 +930,7 @@ int run_compare(const ComparePlan& plan, const StudyOptions& options) {
   write_h5(options.out_dir + "/compare.h5", plan, runs, res);
   const bool plotted =
       run_plot("compare/plot.py", {options.out_dir + "/table.csv", options.out_dir}, options);
-  write_text(options.out_dir + "/report.md", report_md(plan, runs, res, plotted));
+  write_text(options.out_dir + "/report.md", report_md(plan, runs, res, plotted, preps));
   if (!options.quiet) {
     std::printf("compare %s: %zu settings -> %s/report.md\n", plan.name.c_str(), n_set,
                 options.out_dir.c_str());
