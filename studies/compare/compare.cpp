@@ -12,6 +12,7 @@
 #include <limits>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 
 #include "analysis/compare.hpp"
 #include "driver/run.hpp"
@@ -908,9 +909,17 @@ int run_compare(const ComparePlan& plan, const StudyOptions& options) {
       index.emplace_back(s, k);
     }
   }
+  if (requests.empty())
+    throw std::runtime_error("compare " + plan.name +
+                             ": no preparation finished, so no setting can start; see the logs "
+                             "under " +
+                             options.out_dir + "/prepare/runs/points/");
   std::vector<DiagnosedRun> done;
   if (const auto status = run_stage("compare", "settings", requests, options, done, true))
     return *status;
+  // Counted or written as a job array, not run: nothing to report yet.
+  if (options.dry_run || options.slurm)
+    return 0;
   if (sweep::mpi_launched() && sweep::launched_rank() != 0)
     return 0;
 

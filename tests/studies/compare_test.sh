@@ -104,12 +104,13 @@ expect_error "run length" '\[run\] t_av = 0 is out of range'
 
 # ---- Dry run: both stages counted, nothing run.
 dry=$("$jamflow" compare small.toml --out dry.out --dry-run 2>&1)
-if echo "$dry" | grep -q "compare (stage prepare): 3 points" &&
+dry_rc=$?
+if [ "$dry_rc" -eq 0 ] && echo "$dry" | grep -q "compare (stage prepare): 3 points" &&
   echo "$dry" | grep -q "compare (stage settings): 15 points" &&
   [ ! -d dry.out/settings/runs/points ]; then
   ok "dry-run counts 3 preparations and 15 runs"
 else
-  bad "dry-run: $dry"
+  bad "dry-run: exit $dry_rc, output '$dry', files: $(find dry.out -type f | head -20)"
 fi
 
 example=$("$jamflow" compare "$source_dir/examples/compare_rkc_euler.toml" --out example --dry-run 2>&1)
