@@ -163,6 +163,20 @@ int run_command(const std::vector<std::string>& args) {
   return jamflow::run_and_write(spec, opt, output);
 }
 
+// `jamflow scene`: the embedded default scene on stdout; --help says so instead.
+int scene_command(const std::vector<std::string>& args) {
+  CLI::App app{"Print the embedded default scene (TOML) on stdout: a start for a scene file.",
+               "jamflow scene"};
+  std::vector<std::string> rev(args.rbegin(), args.rend());
+  try {
+    app.parse(rev);
+  } catch (const CLI::ParseError& e) {
+    return jamflow::parse_error_exit(app, e, "jamflow scene");
+  }
+  std::fputs(jamflow::kDefaultScene, stdout);
+  return 0;
+}
+
 void print_usage() {
   std::printf(
       "jamflow %s: overdamped shear rheology of soft spheres near jamming\n\n"
@@ -209,10 +223,8 @@ int main(int argc, char** argv) {
     const std::vector<std::string> rest(args.begin() + 1, args.end());
     if (cmd == "run")
       return run_command(rest);
-    if (cmd == "scene") {
-      std::fputs(jamflow::kDefaultScene, stdout);
-      return 0;
-    }
+    if (cmd == "scene")
+      return scene_command(rest);
     if (cmd == "analyze")
       return jamflow::analysis::analyze_main(rest);
     if (cmd == "sweep")

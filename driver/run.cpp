@@ -299,7 +299,7 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   res.trajectory_bytes = from ? from->trajectory_bytes : 0;
 
   Progress progress(options.label, t_total, options.quiet,
-                    from ? from->series.samples.back().time : 0.0);
+                    from ? from->series.samples.back().time : 0.0, options.progress);
   auto record = [&](double t_rel) {
     const Evaluation& ev = model.evaluate();
     const State& s = model.state();
@@ -428,7 +428,7 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
     sim.run(spec.sample_every, k_first, {&length, &budget, &sampler, &frames, &report, &control},
             &attention);
     if (res.status == "complete")
-      progress.finish();
+      progress.finish(res.series.samples.back().time);
   } catch (const IntegrationError& e) {
     res.status = "failed at t = " + fmt(model.state().time - t_start) + ": " + e.what();
   } catch (const ConfigError& e) {
@@ -530,6 +530,11 @@ RunOutcome run_replicas(const RunSpec& spec, const RunOptions& options,
     if (output.write) {
       try {
         write_xyz_file(o.label + (ok ? ".final.xyz" : ".last.xyz"), last.final_state);
+        // A resumed run that completes: the state it stopped at is superseded.
+        if (ok) {
+          std::error_code ec;
+          std::filesystem::remove(o.label + ".last.xyz", ec);
+        }
       } catch (const IoError& e) {  // the run file holds the same state under /final
         std::fprintf(stderr, "jamflow: warning: %s\n", e.what());
       }

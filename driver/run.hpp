@@ -15,6 +15,7 @@
 #include "integrators/registry.hpp"
 #include "lib/config.hpp"
 #include "lib/model.hpp"
+#include "lib/progress.hpp"
 #include "lib/state.hpp"
 #include "lib/statistics.hpp"
 
@@ -177,6 +178,9 @@ struct RunOptions {
   // signal, and once at the start. Empty: no checkpoints.
   std::function<void(const ReplicaResult&)> checkpoint;
   double checkpoint_every = 600.0;
+  // Where the progress goes unless quiet: empty, the progress line on stderr; else every
+  // sample's report (and the last, `finished`, of a completed replica), from the run's thread.
+  std::function<void(const ProgressReport&)> progress;
 };
 
 // Builds the initial state (random or from init), and runs one replica with the given seed.

@@ -37,7 +37,8 @@ int study_main(const std::vector<std::string>& args) {
     names += (names.empty() ? "" : ", ") + s.name;
   app.add_option("name", name, "study to run: " + (names.empty() ? "(none built)" : names))
       ->required();
-  app.add_option("--preset", opt.preset, "quick (CI, minutes), standard (~1 h), paper (cluster)")
+  app.add_option("--preset", opt.preset,
+                 "required: quick (CI, minutes), standard (~1 h), paper (cluster)")
       ->check(CLI::IsMember({"quick", "standard", "paper"}));
   app.add_option("--out", opt.out_dir, "output folder (default out/<study>-<preset>)")
       ->check(non_empty_path());
@@ -72,6 +73,10 @@ int study_main(const std::vector<std::string>& args) {
   }
   for (const auto& s : registry()) {
     if (s.name == name) {
+      // No silent default: the preset sets a study's cost by orders of magnitude.
+      if (app.count("--preset") == 0)
+        throw ConfigError("jamflow study " + name +
+                          ": --preset is not given; allowed: quick, standard, paper");
       if (!opt.only.empty() && name != "paper")
         throw ConfigError("jamflow study " + name + " --only; allowed with study paper only");
       if (opt.out_dir.empty())

@@ -4,6 +4,7 @@
 #include <signal.h>
 #include <spawn.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -406,17 +407,50 @@ struct Child {
 };
 
 // Locks the task against a second sweep running it at the same time (a rerun while the first
-// still runs, two array tasks): an exclusive flock on r<k>.lock, held while the child runs.
-int lock_task(const Plan& plan, const Task& t) {
-  const std::string path = plan.task_file(t) + ".lock";
-  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  if (fd < 0)
-    return -1;
-  if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
-    ::close(fd);
-    return -1;
+// still runs, two array tasks): an exclusive flock on r<k>.h5.lock, held while the child runs
+// and removed when it ends (unlock_task), so that a finished sweep leaves no lock files. The
+// holder removes the file before it lets go, so a process that opened the file just before
+// may get the lock on a file no longer there: the path must still name the file locked.
+int lock_task(const std::string& path) {
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd < 0)
+      return -1;
+    if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+      ::close(fd);
+      return -1;
+    }
+    struct stat held {
+    }, named{};
+    if (::fstat(fd, &held) == 0 && ::stat(path.c_str(), &named) == 0 &&
+        held.st_dev == named.st_dev && held.st_ino == named.st_ino)
+      return fd;
+    ::close(fd);  // removed by its holder meanwhile: lock the file now at the path
   }
-  return fd;
+  return -1;
+}
+
+std::string lock_path(const Plan& plan, const Task& t) {
+  return plan.task_file(t) + ".lock";
+}
+
+void unlock_task(const std::string& path, int fd) {
+  ::unlink(path.c_str());
+  ::close(fd);
+}
+
+// Lock files of finished tasks left by a process that ended without removing them (an older
+// jamflow, a killed sweep): removed once no process holds them.
+void remove_stale_locks(const Plan& plan, const std::vector<Task>& tasks) {
+  for (const Task& t : tasks) {
+    const std::string path = lock_path(plan, t);
+    std::error_code ec;
+    if (!fs::exists(path, ec) || !fs::exists(plan.task_file(t), ec))
+      continue;
+    const int fd = lock_task(path);
+    if (fd >= 0)
+      unlock_task(path, fd);
+  }
 }
 
 // Starts `exe args` in the folder `dir`, with stdout and stderr appended to `log` (a name in
@@ -479,7 +513,7 @@ int run_slots(const Plan& plan, const std::vector<Task>& tasks, const SlotOption
         break;
       }
       const Task& t = tasks[*next];
-      const int fd = lock_task(plan, t);
+      const int fd = lock_task(lock_path(plan, t));
       if (fd < 0) {
         report(*next, TaskState::kBusyElsewhere, 0.0, "locked by another sweep process");
         continue;
@@ -487,7 +521,7 @@ int run_slots(const Plan& plan, const std::vector<Task>& tasks, const SlotOption
       std::string detail;
       const TaskState now = probe(plan, t, &detail);  // the files may have moved on since
       if (now == TaskState::kDone || now == TaskState::kFailed) {
-        ::close(fd);
+        unlock_task(lock_path(plan, t), fd);
         report(*next, now, 0.0, now == TaskState::kFailed ? detail : "");
         continue;
       }
@@ -507,7 +541,7 @@ int run_slots(const Plan& plan, const std::vector<Task>& tasks, const SlotOption
       try {
         pid = spawn(options.exe, args, dir, stem + ".log");
       } catch (const std::exception& e) {
-        ::close(fd);
+        unlock_task(lock_path(plan, t), fd);
         report(*next, TaskState::kFailed, 0.0, e.what());
         continue;
       }
@@ -531,13 +565,15 @@ int run_slots(const Plan& plan, const std::vector<Task>& tasks, const SlotOption
               plan.task_log(tasks[c.task]);
       else if (s == TaskState::kCheckpointed)
         why = detail;
-      ::close(c.lock_fd);
+      unlock_task(lock_path(plan, tasks[c.task]), c.lock_fd);
       report(c.task, s, now_seconds() - c.start, why);
       continue;
     }
     tick();
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
+  if (stopped_by == 0)
+    remove_stale_locks(plan, tasks);
   return stopped_by;
 }
 

@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -109,6 +110,15 @@ TEST_F(ExitStatus, HelpExitsZero) {
   EXPECT_NE(help.out.find("--output"), std::string::npos) << help.out;
   EXPECT_EQ(run({"study", "--help"}).status, 0);
   EXPECT_EQ(run({"analyze", "--help"}).status, 0);
+  // `scene --help` says what the command does; it printed the scene.
+  const Outcome scene_help = run({"scene", "--help"});
+  EXPECT_EQ(scene_help.status, 0);
+  EXPECT_NE(scene_help.out.find("default scene"), std::string::npos) << scene_help.out;
+  EXPECT_EQ(scene_help.out.find("[system]"), std::string::npos) << scene_help.out;
+  const Outcome scene = run({"scene"});
+  EXPECT_EQ(scene.status, 0);
+  EXPECT_NE(scene.out.find("[system]"), std::string::npos) << scene.out;
+  expect_usage_error(run({"scene", "extra"}), "jamflow scene: error: ");
 }
 
 TEST_F(ExitStatus, RunParseErrorsAreUsageErrors) {
@@ -127,6 +137,11 @@ TEST_F(ExitStatus, OtherCommandsParseErrorsAreUsageErrors) {
   expect_usage_error(run({"study"}), "jamflow study: error: ");
   expect_usage_error(run({"study", "stability", "--preset", "huge"}), "jamflow study: error: ");
   expect_usage_error(run({"study", "no-such-study"}), "unknown study 'no-such-study'");
+  // No preset: an error naming the presets, not a silent `quick` (nothing is written).
+  expect_usage_error(run({"study", "timestep"}),
+                     "jamflow study timestep: --preset is not given; allowed: quick, standard, "
+                     "paper");
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
   expect_usage_error(run({"analyze", "--bogus"}), "jamflow analyze: error: ");
   expect_usage_error(run({"frobnicate"}), "unknown command 'frobnicate'");
   expect_usage_error(run({}), "no command given");
@@ -222,6 +237,47 @@ TEST_F(ExitStatus, MessagesSayWhatIsWrongAndWhatCanBeDone) {
   expect_usage_error(run({"run", dup, "-o", "dup.h5"}),
                      "dup.xyz:5: particle 3 is at the same position as particle 1 (line 3)");
   EXPECT_FALSE(fs::exists(dir_ / "dup.h5.part"));
+}
+
+// The progress line under t_eq = "auto": the run's length is decided as it goes (the transient's
+// end plus t_av), so the estimate grows with the run, no line shows a time beyond its estimate,
+// and the last line shows the run complete at 100 %. (It ended at 91.5 % of the first estimate
+// while the run went on.)
+TEST_F(ExitStatus, ProgressUnderAutoLengthGrowsAndEndsAt100Percent) {
+  // Random start at phi = 0.6: the pressure relaxes over the whole first t_av, so the transient
+  // found is longer than zero and the run goes beyond its first estimate (t_av = 20).
+  const std::string scene = file("auto.toml",
+                                 "[system]\nN = 100\nphi = 0.6\n"
+                                 "[ensemble]\nkind = \"constant_volume\"\n"
+                                 "[shear]\nrate = 1e-2\n"
+                                 "[integrator]\nkind = \"euler\"\ndt = 0.1\n"
+                                 "[run]\nt_eq = \"auto\"\nt_av = 20\nsample_every = 0.1\n");
+  const Outcome o = run({"run", scene, "-o", "auto.h5"});
+  ASSERT_EQ(o.status, 0) << o.err;
+  struct Line {
+    double t, total, percent;
+    std::string text;
+  };
+  std::vector<Line> lines;
+  std::istringstream in(o.err);
+  for (std::string text; std::getline(in, text);) {
+    Line l{0, 0, 0, text};
+    if (std::sscanf(text.c_str(), "[auto] t = %lf / %lf %lf%%", &l.t, &l.total, &l.percent) == 3)
+      lines.push_back(l);
+  }
+  ASSERT_GE(lines.size(), 3u) << o.err;
+  bool grew = false;
+  for (const Line& l : lines) {
+    EXPECT_LE(l.t, l.total) << l.text;
+    EXPECT_LE(l.percent, 100.0) << l.text;
+    grew = grew || l.total > 20.0;
+  }
+  EXPECT_TRUE(grew) << "the estimate never grew beyond t_av:\n" << o.err;
+  const Line& last = lines.back();
+  EXPECT_EQ(last.percent, 100.0) << o.err;
+  EXPECT_EQ(last.t, last.total) << o.err;
+  EXPECT_GT(last.total, 20.0) << o.err;
+  EXPECT_NE(last.text.find("done"), std::string::npos) << o.err;
 }
 
 // A step that shears by more than a cell length (gdot dt = 2 and 20) runs (it crashed with

@@ -604,5 +604,23 @@ TEST(ResumeCli, OlderCheckpointsWithoutDigestStillResume) {
   EXPECT_TRUE(fs::exists(out));
 }
 
+// A stopped run leaves its state as OUT.last.xyz; once resumed to the end, only OUT.final.xyz
+// is left (the stopped state is superseded).
+TEST(ResumeCli, ResumedRunLeavesOnlyTheFinalXyz) {
+  TempDir dir;
+  const std::string out = dir.file("stop.h5");
+  write_text(dir.file("stop.toml"), scene(out, kPressure, kEuler, 1000.0, 1000.0));
+  Child c = spawn({"run", dir.file("stop.toml"), "-q"});
+  wait_for_checkpoints(out + ".part", 2);
+  ::kill(c.pid, SIGTERM);
+  if (c.wait() != 128 + SIGTERM)
+    GTEST_SKIP() << "the run finished before it was stopped";
+  ASSERT_TRUE(fs::exists(dir.file("stop.last.xyz")));
+  EXPECT_FALSE(fs::exists(dir.file("stop.final.xyz")));
+  EXPECT_EQ(spawn({"run", "--resume", out + ".part", "-q"}).wait(), 0);
+  EXPECT_TRUE(fs::exists(dir.file("stop.final.xyz")));
+  EXPECT_FALSE(fs::exists(dir.file("stop.last.xyz")));
+}
+
 }  // namespace
 }  // namespace jamflow

@@ -95,7 +95,8 @@ one_line_exit_2() {  # description, command...
 }
 one_line_exit_2 "--only with an unknown study" \
   "$jamflow" study paper --preset quick --only hard-sphere,nonesuch --out x1
-one_line_exit_2 "--only on another study" "$jamflow" study hard-sphere --only finite-size --out x2
+one_line_exit_2 "--only on another study" "$jamflow" study hard-sphere --preset quick --only finite-size \
+  --out x2
 OMPI_COMM_WORLD_SIZE=2 OMPI_COMM_WORLD_RANK=0 one_line_exit_2 "an MPI launch" \
   "$jamflow" study paper --preset quick --out x3
 [ ! -e x1 ] && [ ! -e x2 ] && [ ! -e x3 ] && ok "nothing written for bad input" ||

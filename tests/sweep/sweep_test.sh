@@ -49,6 +49,8 @@ TOML
 if "$jamflow" sweep six.toml -j 2 -q; then ok "local sweep of 6 points"; else bad "local sweep"; fi
 files=(six.sweep/points/*/r0.h5)
 [ "${#files[@]}" -eq 6 ] && ok "6 point files" || bad "expected 6 point files, found ${#files[@]}"
+locks=$(find six.sweep -name '*.lock' | wc -l)
+[ "$locks" -eq 0 ] && ok "no lock files after the sweep" || bad "$locks lock files left after the sweep"
 mv six.sweep six.local
 if command -v mpirun >/dev/null && "$jamflow" --help | grep -q mpirun; then
   export OMPI_MCA_rmaps_base_oversubscribe=1
@@ -159,6 +161,9 @@ if [ -f run/points/N-400/r0.h5 ] && [ -f run/points/N-200/r0.h5.part ] && [ ! -f
     bad "finished point was rewritten"
   resumes=$($py -c 'import h5py,sys; print(int(h5py.File(sys.argv[1])["/"].attrs["resumes"]))' run/points/N-200/r0.h5)
   [ "$resumes" -ge 1 ] && ok "interrupted point resumed ($resumes)" || bad "interrupted point not resumed"
+  left=$(find run -name '*.lock' -o -name '*.last.xyz' | wc -l)
+  [ "$left" -eq 0 ] && ok "no lock or .last.xyz files after the resumed sweep" ||
+    bad "left after the resumed sweep: $(find run -name '*.lock' -o -name '*.last.xyz')"
   pairs=()
   for n in N-400 N-200 N-50; do pairs+=("ref/points/$n/r0.h5" "run/points/$n/r0.h5"); done
   if $compare --ignore resumes "${pairs[@]}"; then ok "interrupted sweep gives the same bits"; else
