@@ -146,7 +146,8 @@ std::string checkpoint_digest(const std::string& scene_text, const std::string& 
   for (const char* key : {"run.threads", "output.file", "run.t_av", "run.target_error",
                           "run.max_time", "output.checkpoint_every"})
     scene.set_value(key, toml::value<std::string>("*"));
-  std::string text = scene.text() + "\nversion " + version + "\n";
+  // The legacy text: a digest written before floats were printed short still matches.
+  std::string text = scene.legacy_text() + "\nversion " + version + "\n";
   auto bits = [](double v) {
     std::uint64_t b;
     std::memcpy(&b, &v, sizeof b);

@@ -1,12 +1,14 @@
 // Scene parsing and validation.
 #include "lib/config.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 
 #include "lib/error.hpp"
 
@@ -415,7 +417,119 @@ void Scene::set_section(const std::string& name, toml::table table) {
   table_.insert_or_assign(name, std::move(table));
 }
 
+namespace {
+
+// toml++ 3.3, as Debian builds it (without floating-point to_chars), prints a double with 17
+// significant digits: dt = 0.10000000000000001. toml_text() lets it lay the table out and
+// puts in each float in its shortest form that reads back to the same double (std::to_chars),
+// by printing a copy whose floats are marker strings and replacing the markers.
+constexpr std::string_view kFloatMarker = "@jamflow-float-";
+
+bool has_marker(const toml::node& n) {
+  if (const auto* s = n.as_string())
+    return s->get().find(kFloatMarker) != std::string::npos;
+  if (const auto* t = n.as_table()) {
+    for (const auto& [k, v] : *t)
+      if (k.str().find(kFloatMarker) != std::string_view::npos || has_marker(v))
+        return true;
+  }
+  if (const auto* a = n.as_array()) {
+    for (const auto& v : *a)
+      if (has_marker(v))
+        return true;
+  }
+  return false;
+}
+
+std::string marker(std::size_t k) {
+  return std::string(kFloatMarker) + std::to_string(k) + "@";
+}
+
+void mark_floats(toml::node& n, std::vector<double>& floats) {
+  if (auto* t = n.as_table()) {
+    for (auto&& [k, v] : *t) {
+      if (const auto* d = v.as_floating_point()) {
+        floats.push_back(d->get());
+        t->insert_or_assign(k, marker(floats.size() - 1));
+      } else {
+        mark_floats(v, floats);
+      }
+    }
+  } else if (auto* a = n.as_array()) {
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      if (const auto* d = a->get(i)->as_floating_point()) {
+        floats.push_back(d->get());
+        a->replace(a->cbegin() + static_cast<std::ptrdiff_t>(i), marker(floats.size() - 1));
+      } else {
+        mark_floats(*a->get(i), floats);
+      }
+    }
+  }
+}
+
+}  // namespace
+
+std::string toml_float(double v) {
+  if (std::isnan(v))
+    return "nan";
+  if (std::isinf(v))
+    return v > 0 ? "inf" : "-inf";
+  // The shortest digits that read back to v (std::to_chars), written as Python's repr writes
+  // them: positional for decimal exponents -4 to 15 (0.0002, 30000.0), else with an exponent
+  // (1e-05, 1e+16).
+  char buf[400];  // fixed notation of an exponent up to 15, or scientific: far less
+  char* end = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::scientific).ptr;
+  const char* e = std::find(buf, end, 'e');
+  int exponent = 0;
+  if (e != end)
+    std::from_chars(e + 1 + (e[1] == '+'), end, exponent);
+  if (exponent < -4 || exponent >= 16)
+    return std::string(buf, end);
+  end = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::fixed).ptr;
+  std::string s(buf, end);
+  if (s.find('.') == std::string::npos)
+    s += ".0";  // 3 would read back as an integer
+  return s;
+}
+
+std::string toml_text(const toml::table& table) {
+  std::ostringstream os;
+  if (has_marker(table)) {  // a string that looks like a marker: printed as toml++ does
+    os << table;
+    return os.str();
+  }
+  toml::table copy = table;
+  std::vector<double> floats;
+  mark_floats(copy, floats);
+  os << copy;
+  std::string text = os.str();
+  // Each marker is printed once, as a quoted string: '...' or "...".
+  std::size_t from = 0;
+  for (std::size_t k = 0; k < floats.size(); ++k) {
+    const std::string m = marker(k);
+    const std::size_t at = text.find(m, from);
+    if (at == std::string::npos || at == 0 || at + m.size() >= text.size())
+      throw std::logic_error("toml_text: float marker not found");
+    const std::string value = toml_float(floats[k]);
+    text.replace(at - 1, m.size() + 2, value);
+    from = at - 1 + value.size();
+  }
+  return text;
+}
+
 std::string Scene::text() const {
+  return toml_text(table_) + "\n";
+}
+
+std::string canonical_scene_text(std::string_view text) {
+  try {
+    return Scene::parse(text, "scene").text();
+  } catch (const std::exception&) {
+    return {};
+  }
+}
+
+std::string Scene::legacy_text() const {
   std::ostringstream os;
   os << table_ << "\n";
   return os.str();

@@ -82,6 +82,10 @@ class Scene {
   void set_section(const std::string& name, toml::table table);
 
   std::string text() const;  // canonical TOML after overrides: what goes into outputs
+  // The text as jamflow 0.1.0 printed it (toml++'s 17-digit floats), from which checkpoint
+  // digests are computed: the same for a scene however its file prints the floats. Never
+  // change it, or checkpoints written before stop resuming.
+  std::string legacy_text() const;
   const std::string& source() const { return source_; }
 
  private:
@@ -91,5 +95,13 @@ class Scene {
 
 // Formats a double for messages (shortest round-trip form).
 std::string fmt(double v);
+// Scene text as Scene::text() prints it, for comparing scenes across printing styles; empty if
+// the text is not TOML.
+std::string canonical_scene_text(std::string_view text);
+// A double as a TOML float in its shortest round-trip form: 0.1, 1e-05, 3.0, inf, nan.
+std::string toml_float(double v);
+// TOML text of a table as toml++ lays it out, with every float in its shortest round-trip form
+// (dt = 0.1, not 0.10000000000000001): scenes, sweep files and manifests that jamflow writes.
+std::string toml_text(const toml::table& table);
 
 }  // namespace jamflow

@@ -504,7 +504,7 @@ std::string stage_sweep(const std::vector<Scene>& scenes, const std::vector<std:
   os << "# The " << study << " study's stage '" << stage
      << "': one point per run.\n# Written by `jamflow study`; run by it, or by `jamflow sweep` "
         "like any sweep.\n"
-     << root << "\n";
+     << toml_text(root) << "\n";
   return os.str();
 }
 

@@ -9,6 +9,7 @@
 #include <toml++/toml.h>
 
 #include "analysis/soft.hpp"
+#include "lib/config.hpp"
 #include "lib/error.hpp"
 #include "studies/hard-sphere/points.hpp"
 
@@ -79,7 +80,7 @@ std::string volume_sweep_text(const VolumePreset& g) {
   std::ostringstream os;
   os << "# The " << g.study << " study's '" << g.name << "' constant-volume points (" << g.why
      << ").\n# Written by `jamflow study`; run by it, or by `jamflow sweep` like any sweep.\n"
-     << root << "\n";
+     << toml_text(root) << "\n";
   return os.str();
 }
 

@@ -104,7 +104,10 @@ void prepare_out_dir(const Plan& plan) {
     const std::string text = p.scene.text();
     const std::string file = plan.scene_file(p);
     if (fs::exists(file, ec)) {
-      if (read_text(file) != text) {
+      // Compared as scenes: a scene.toml written before floats were printed in their shortest
+      // form holds the same scene in longer text, and its point resumes.
+      const std::string stored = read_text(file);
+      if (stored != text && canonical_scene_text(stored) != text) {
         throw ConfigError("sweep point " + p.name + ": its scene differs from the one in '" + file +
                           "' that its files were run with; allowed the same scene, or "
                           "another --out folder");
@@ -382,7 +385,7 @@ void Coordinator::write_manifest() {
   std::ostringstream os;
   os << "# jamflow sweep manifest: a view of the point files, rewritten now and then (every\n"
      << "# event is in journal.log as it happens).\n"
-     << root << "\n";
+     << toml_text(root) << "\n";
   const std::string text = os.str();
   try {
     write_text_atomically((fs::path(plan_.out_dir) / "manifest.toml").string(), text);

@@ -66,7 +66,9 @@ Reused reuse_finished(const Plan& plan, const std::vector<std::string>& roots) {
       const fs::path scene = it->path();
       if (!std::regex_match(scene.filename().string(), kTaskScene))
         continue;
-      const auto range = wanted.equal_range(read_all(scene));
+      // Compared as scenes, not bytes: a file written before floats were printed in their
+      // shortest form (dt = 0.10000000000000001) holds the same scene as dt = 0.1.
+      const auto range = wanted.equal_range(canonical_scene_text(read_all(scene)));
       if (range.first == range.second)
         continue;
       fs::path run = scene;

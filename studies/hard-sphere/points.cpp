@@ -178,7 +178,7 @@ std::string sweep_text(const GridPreset& g) {
   std::ostringstream os;
   os << "# The " << g.study << " study's '" << g.name << "' points (" << g.why
      << ").\n# Written by `jamflow study`; run by it, or by `jamflow sweep` like any sweep.\n"
-     << root << "\n";
+     << toml_text(root) << "\n";
   return os.str();
 }
 

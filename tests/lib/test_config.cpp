@@ -2,7 +2,12 @@
 // key, the value and what is allowed.
 #include <gtest/gtest.h>
 
+#include <bit>
+#include <cmath>
+#include <cstdint>
 #include <functional>
+#include <limits>
+#include <random>
 
 #include "lib/config.hpp"
 #include "lib/error.hpp"
@@ -120,6 +125,81 @@ TEST(Config, UnknownSection) {
   Scene s = Scene::parse("[sytem]\nN = 3\n", "t.toml");
   const std::string e = error_of([&] { s.check_sections({"system"}); });
   EXPECT_NE(e.find("unknown section [sytem]"), std::string::npos) << e;
+}
+
+// Scenes print every float in its shortest form that reads back to the same double (toml++ as
+// Debian builds it printed 17 digits: dt = 0.10000000000000001), and keep toml++'s layout.
+TEST(Config, FloatsPrintShortestAndReadBackExactly) {
+  const Scene s = Scene::parse(
+      "[integrator]\ndt = 0.1\n[system]\nphi = 0.5686\nN = 32\n[shear]\nrate = 3e-3\n"
+      "[run]\nt_av = 30000.0\nt_eq = 0.0\n[sweep.grid]\n\"shear.rate\" = [1e-5, 0.3, 2.0]\n"
+      "[x]\nname = \"0.10000000000000001\"\ntable = { a = 0.7, b = [[0.25]] }\n",
+      "t.toml");
+  const std::string text = s.text();
+  for (const char* want : {"dt = 0.1\n", "phi = 0.5686\n", "N = 32\n", "rate = 0.003\n",
+                           "t_av = 30000.0\n", "t_eq = 0.0\n", "[ 1e-05, 0.3, 2.0 ]",
+                           "name = '0.10000000000000001'", "a = 0.7", "[ [ 0.25 ] ]"})
+    EXPECT_NE(text.find(want), std::string::npos) << want << " in\n" << text;
+  std::string floats_only = text;
+  floats_only.erase(text.find("name = "),
+                    text.find('\n', text.find("name = ")) - text.find("name = "));
+  EXPECT_EQ(floats_only.find("0000000"), std::string::npos) << text;
+  // The same tables as toml++ lays them out: only the floats differ.
+  const std::string legacy = s.legacy_text();
+  EXPECT_NE(legacy.find("dt = 0.10000000000000001\n"), std::string::npos) << legacy;
+  EXPECT_EQ(Scene::parse(text, "t").legacy_text(), legacy);
+  EXPECT_EQ(canonical_scene_text(legacy), text);
+  EXPECT_EQ(canonical_scene_text("[x\n"), "");
+}
+
+TEST(Config, ShortestFloatsRoundTripBitForBit) {
+  std::mt19937_64 rng(7);
+  std::vector<double> values = {0.0,
+                                -0.0,
+                                1.0,
+                                -3.0,
+                                1e22,
+                                1e-5,
+                                0.1,
+                                1.0 / 3.0,
+                                std::numeric_limits<double>::max(),
+                                std::numeric_limits<double>::min(),
+                                std::numeric_limits<double>::denorm_min(),
+                                std::numeric_limits<double>::infinity(),
+                                -std::numeric_limits<double>::infinity()};
+  for (int k = 0; k < 2000; ++k) {
+    double v = std::bit_cast<double>(rng());
+    if (std::isfinite(v))
+      values.push_back(v);
+  }
+  toml::table t;
+  toml::array a;
+  for (std::size_t k = 0; k < values.size(); ++k) {
+    t.insert(std::string("v").append(std::to_string(k)), values[k]);
+    a.push_back(values[k]);
+  }
+  t.insert("all", std::move(a));
+  const toml::table back = toml::parse(toml_text(t));
+  for (std::size_t k = 0; k < values.size(); ++k) {
+    const auto* v = back.get(std::string("v").append(std::to_string(k)));
+    ASSERT_TRUE(v && v->is_floating_point()) << values[k];
+    EXPECT_EQ(std::bit_cast<std::uint64_t>(v->as_floating_point()->get()),
+              std::bit_cast<std::uint64_t>(values[k]))
+        << toml_float(values[k]);
+    EXPECT_EQ(std::bit_cast<std::uint64_t>(back["all"][k].value<double>().value()),
+              std::bit_cast<std::uint64_t>(values[k]));
+  }
+  EXPECT_EQ(toml_float(std::nan("")), "nan");
+  // Written as Python's repr writes floats.
+  EXPECT_EQ(toml_float(2e-4), "0.0002");
+  EXPECT_EQ(toml_float(1e-5), "1e-05");
+  EXPECT_EQ(toml_float(30000.0), "30000.0");
+  EXPECT_EQ(toml_float(1e16), "1e+16");
+  EXPECT_EQ(toml_float(0.56859999999999999), "0.5686");
+  // A string that looks like the printer's marker is kept as it is.
+  toml::table odd{{"s", "@jamflow-float-0@"}, {"x", 0.1}};
+  EXPECT_EQ(toml::parse(toml_text(odd))["s"].value<std::string>(), "@jamflow-float-0@");
+  EXPECT_EQ(toml::parse(toml_text(odd))["x"].value<double>(), 0.1);
 }
 
 }  // namespace
