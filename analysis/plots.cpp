@@ -9,6 +9,8 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "lib/data_files.hpp"
+
 #ifndef JAMFLOW_PYTHON
 #define JAMFLOW_PYTHON "/usr/bin/python3"
 #endif
@@ -27,7 +29,7 @@ std::string python_interpreter() {
 
 std::string plot_scripts_dir() {
   const char* env = std::getenv("JAMFLOW_ANALYSIS_SCRIPTS");
-  return env && *env ? env : JAMFLOW_ANALYSIS_SCRIPTS;
+  return env && *env ? env : data_dir("analysis/plots", JAMFLOW_ANALYSIS_SCRIPTS);
 }
 
 PlotOutcome run_plot_script(const std::string& script, const std::string& sidecar,

@@ -29,9 +29,14 @@ foreach(dir lib ensembles integrators driver sweep analysis)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/${dir}/ DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/jamflow/${dir}
     FILES_MATCHING PATTERN "*.hpp" PATTERN "*.inl" PATTERN "*.h")
 endforeach()
+# What the binaries read at run time, found relative to them (lib/data_files.hpp): the plot
+# scripts of `jamflow analyze` and of the studies.
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/analysis/plots/
+  DESTINATION ${CMAKE_INSTALL_DATADIR}/jamflow/analysis/plots FILES_MATCHING PATTERN "*.py")
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/studies/ DESTINATION ${CMAKE_INSTALL_DATADIR}/jamflow/studies
+  FILES_MATCHING PATTERN "plot.py" PATTERN "results" EXCLUDE)
 install(EXPORT jamflowTargets NAMESPACE jamflow:: DESTINATION ${JAMFLOW_CMAKE_DIR})
 
-set(JAMFLOW_CONFIG_HAVE_MPI ${MPI_C_FOUND})
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/jamflowConfig.cmake.in
   ${PROJECT_BINARY_DIR}/jamflowConfig.cmake INSTALL_DESTINATION ${JAMFLOW_CMAKE_DIR})
 write_basic_package_version_file(${PROJECT_BINARY_DIR}/jamflowConfigVersion.cmake

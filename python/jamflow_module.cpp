@@ -34,6 +34,7 @@
 #include "driver/run.hpp"
 #include "driver/simulation.hpp"
 #include "lib/config.hpp"
+#include "lib/data_files.hpp"
 #include "lib/error.hpp"
 #include "sweep/collect.hpp"
 #include "sweep/engine.hpp"
@@ -44,6 +45,9 @@
 #endif
 #ifndef JAMFLOW_MODULE_TO_BIN
 #define JAMFLOW_MODULE_TO_BIN "../../../bin"
+#endif
+#ifndef JAMFLOW_BIN_TO_DATA
+#define JAMFLOW_BIN_TO_DATA "../share/jamflow"
 #endif
 
 namespace py = pybind11;
@@ -513,6 +517,19 @@ std::string jamflow_exe_for_module() {
       "set JAMFLOW_EXE to its path");
 }
 
+// The installed data (plot scripts) of the tree this module is installed in: the module, not
+// the interpreter, says where that is. In a build folder it does not exist, and the source
+// tree's scripts are used.
+void register_data_root() {
+  Dl_info info{};
+  if (::dladdr(reinterpret_cast<void*>(&register_data_root), &info) && info.dli_fname) {
+    std::error_code ec;
+    const fs::path here = fs::absolute(info.dli_fname, ec).parent_path();
+    jamflow::set_data_root(
+        (here / JAMFLOW_MODULE_TO_BIN / JAMFLOW_BIN_TO_DATA).lexically_normal().string());
+  }
+}
+
 // A CSV table as {column: numpy array (numbers; empty cells NaN) or list of str}.
 py::dict read_table(const std::string& path) {
   std::ifstream in(path);
@@ -732,6 +749,7 @@ PYBIND11_MODULE(jamflow, m) {
       "simulations under a Python protocol loop, sweeps and analyses; see the README's "
       "\"Python\" section.";
   m.attr("__version__") = JAMFLOW_VERSION;
+  register_data_root();
   m.attr("default_scene") = jamflow::kDefaultScene;
 
   static py::exception<jamflow::ConfigError> config_error(m, "ConfigError", PyExc_ValueError);

@@ -15,7 +15,8 @@ cd "$here"
 packages=(build-essential cmake pkg-config libeigen3-dev libsundials-dev libgsl-dev libhdf5-dev
           libgtest-dev libtomlplusplus-dev libcli11-dev libhwy-dev libopenmpi-dev openmpi-bin
           python3-matplotlib python3-h5py python3-numpy python3-dev pybind11-dev python3-pytest
-          python3-ase python3-mdanalysis)
+          python3-ase python3-mdanalysis python3-tqdm python3-venv python3-pip python3-setuptools
+          python3-wheel)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "lib/data_files.hpp"
 #include "lib/error.hpp"
 #include "lib/text_file.hpp"
 
@@ -84,7 +85,8 @@ bool run_plot(const std::string& script, const std::vector<std::string>& args,
     return false;
   const char* env = std::getenv("JAMFLOW_PYTHON");
   const std::string python = env && *env ? env : JAMFLOW_PYTHON;
-  std::string cmd = "'" + python + "' '" + std::string(JAMFLOW_STUDIES_DIR) + "/" + script + "'";
+  const std::string dir = data_dir("studies", JAMFLOW_STUDIES_DIR);
+  std::string cmd = "'" + python + "' '" + dir + "/" + script + "'";
   for (const auto& a : args)
     cmd += " '" + a + "'";
   const int rc = std::system(cmd.c_str());
