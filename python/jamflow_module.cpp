@@ -7,6 +7,7 @@
 // (Ctrl-C) raises the engine's stop flag: the run stops at the end of a step, keeps its
 // checkpoint (OUT.h5.part) as the command line does, and the KeyboardInterrupt propagates.
 #include <dlfcn.h>
+#include <pybind11/eval.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -22,6 +23,7 @@
 #include <exception>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <sstream>
@@ -69,8 +71,10 @@ std::string one_line(std::string text) {
 // Runs `work` (which polls `stop`) in a thread of its own with the GIL released; the calling
 // thread lets Python handle signals every 50 ms. A KeyboardInterrupt (or any exception a signal
 // handler raises) sets `stop`, waits for the work to end and propagates.
+// `poll`, if given, is called with the GIL held at each wake and once after the work has ended
+// (the progress callback); an exception it raises stops the work as Ctrl-C does.
 template <class Work>
-void run_released(Work&& work, std::atomic<bool>& stop) {
+void run_released(Work&& work, std::atomic<bool>& stop, const std::function<void()>& poll = {}) {
   std::mutex mutex;
   std::condition_variable done_cv;
   bool done = false, interrupted = false;
@@ -98,6 +102,14 @@ void run_released(Work&& work, std::atomic<bool>& stop) {
         if (PyErr_CheckSignals() != 0) {
           interrupted = true;  // the exception stays set for this thread
           stop.store(true);
+        } else if (poll) {
+          try {
+            poll();
+          } catch (py::error_already_set& e) {
+            e.restore();  // set again for this thread, raised below
+            interrupted = true;
+            stop.store(true);
+          }
         }
       }
       lock.lock();
@@ -107,8 +119,63 @@ void run_released(Work&& work, std::atomic<bool>& stop) {
   }
   if (interrupted)
     throw py::error_already_set();
+  if (poll)
+    poll();  // what arrived after the last wake
   if (error)
     std::rethrow_exception(error);
+}
+
+// Progress reports from the run's thread, handed to a Python callable in the calling thread
+// (with the GIL, at most every 50 ms): only the latest report of a running replica is kept,
+// and every replica's last (finished) report is delivered.
+class ProgressRelay {
+ public:
+  explicit ProgressRelay(py::object callback) : callback_(std::move(callback)) {}
+  bool active() const { return !callback_.is_none(); }
+  void push(const jamflow::ProgressReport& r) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!queue_.empty() && !queue_.back().finished && queue_.back().label == r.label)
+      queue_.back() = r;
+    else
+      queue_.push_back(r);
+  }
+  void deliver() {
+    std::vector<jamflow::ProgressReport> reports;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      reports.swap(queue_);
+    }
+    for (const auto& r : reports) {
+      py::dict d;
+      d["label"] = r.label;
+      d["time"] = r.time;
+      d["total"] = r.total;
+      d["fraction"] = r.fraction;
+      d["elapsed"] = r.elapsed;
+      d["eta"] = r.eta;
+      d["extra"] = r.extra;
+      d["finished"] = r.finished;
+      callback_(d);
+    }
+  }
+
+ private:
+  py::object callback_;
+  std::mutex mutex_;
+  std::vector<jamflow::ProgressReport> queue_;
+};
+
+// progress=True: the module's display (tqdm if installed, else a line on sys.stderr); a
+// callable: itself; False or None: none.
+py::object progress_callback(py::object progress) {
+  if (progress.is_none() || (py::isinstance<py::bool_>(progress) && !progress.cast<bool>()))
+    return py::none();
+  if (py::isinstance<py::bool_>(progress))
+    return py::module_::import("jamflow").attr("_ProgressDisplay")();
+  if (!PyCallable_Check(progress.ptr()))
+    throw ConfigError("progress = " + py::repr(progress).cast<std::string>() +
+                      "; allowed True, False or a callable taking a dict");
+  return progress;
 }
 
 // ---- Python values <-> TOML ----------------------------------------------------------------
@@ -386,7 +453,7 @@ RunResult replica_result(const jamflow::RunSpec& spec, const jamflow::ReplicaRes
   return out;
 }
 
-RunResult run(py::handle scene_source, py::object out, bool force, bool progress) {
+RunResult run(py::handle scene_source, py::object out, bool force, py::object progress) {
   jamflow::Scene scene = PyScene::from_any(scene_source).scene();
   jamflow::OutputOptions output;
   output.force = force;
@@ -399,10 +466,14 @@ RunResult run(py::handle scene_source, py::object out, bool force, bool progress
   const jamflow::RunSpec spec = jamflow::parse_run_spec(scene);
   std::atomic<bool> stop{false};
   jamflow::RunOptions options;
-  options.quiet = !progress;
+  ProgressRelay relay(progress_callback(progress));
+  options.quiet = !relay.active();
+  if (relay.active())
+    options.progress = [&relay](const jamflow::ProgressReport& r) { relay.push(r); };
   options.stop = &stop;
   jamflow::RunOutcome outcome;
-  run_released([&] { outcome = jamflow::run_replicas(spec, options, output); }, stop);
+  run_released([&] { outcome = jamflow::run_replicas(spec, options, output); }, stop,
+               [&] { relay.deliver(); });
   if (outcome.code != 0) {
     const std::string status = outcome.replicas.empty() ? "" : outcome.replicas.back().status;
     if (outcome.code == 130) {  // stopped through `stop`
@@ -747,9 +818,50 @@ PYBIND11_MODULE(jamflow, m) {
   m.doc() =
       "jamflow: overdamped shear simulations of soft spheres near jamming. Scenes, runs, "
       "simulations under a Python protocol loop, sweeps and analyses; see the README's "
-      "\"Python\" section.";
+      "\"Python\" section. Data: __version__ (the version), default_scene (the embedded default "
+      "scene, TOML text).";
   m.attr("__version__") = JAMFLOW_VERSION;
   register_data_root();
+  // What progress=True shows: a tqdm bar per replica when tqdm is installed (Debian's
+  // python3-tqdm), else a line redrawn on sys.stderr; both show in Jupyter, unlike the C-level
+  // stderr of the command line's progress line.
+  py::dict scope;
+  py::exec(R"(
+class _ProgressDisplay:
+    """Shows the progress reports of jamflow.run: tqdm if installed, else sys.stderr."""
+
+    def __init__(self):
+        try:
+            from tqdm.auto import tqdm
+        except ImportError:
+            tqdm = None
+        self._tqdm = tqdm
+        self._bars = {}
+
+    def __call__(self, r):
+        if self._tqdm is not None:
+            bar = self._bars.get(r["label"])
+            if bar is None:
+                bar = self._bars[r["label"]] = self._tqdm(
+                    total=r["total"], desc=r["label"], unit="tau_0",
+                    bar_format="{desc}: {percentage:3.0f}%|{bar}| t = {n:.6g} / {total:.6g} "
+                               "[{elapsed}<{remaining}{postfix}]")
+            bar.total = r["total"]
+            bar.n = r["time"]
+            bar.set_postfix_str(r["extra"], refresh=False)
+            bar.refresh()
+            if r["finished"]:
+                bar.close()
+                del self._bars[r["label"]]
+        else:
+            import sys
+            sys.stderr.write("\r[%s] t = %.6g / %.6g  %5.1f%%  %s%s" % (
+                r["label"], r["time"], r["total"], 100.0 * r["fraction"], r["extra"],
+                "\n" if r["finished"] else ""))
+            sys.stderr.flush()
+)",
+           scope);
+  m.attr("_ProgressDisplay") = scope["_ProgressDisplay"];
   m.attr("default_scene") = jamflow::kDefaultScene;
 
   static py::exception<jamflow::ConfigError> config_error(m, "ConfigError", PyExc_ValueError);
@@ -757,6 +869,14 @@ PYBIND11_MODULE(jamflow, m) {
   static py::exception<jamflow::InputFileError> input_error(m, "InputFileError", io_error.ptr());
   static py::exception<jamflow::IntegrationError> integration_error(m, "IntegrationError",
                                                                     PyExc_RuntimeError);
+  config_error.attr("__doc__") =
+      "A bad scene, key, value or argument (the command line's exit status 2): one line naming "
+      "the key, the value and what is allowed.";
+  io_error.attr("__doc__") = "A file that could not be read or written.";
+  input_error.attr("__doc__") = "A scene or init file that cannot be read (an IoError).";
+  integration_error.attr("__doc__") =
+      "A run that failed (the integration left the physical domain) or a sweep with points that "
+      "did not finish.";
   // One line, as the command line prints it.
   py::register_exception_translator([](std::exception_ptr p) {
     try {
@@ -784,18 +904,27 @@ PYBIND11_MODULE(jamflow, m) {
            }),
            py::arg("source") = py::none())
       .def_static("from_text", &PyScene::from_text, py::arg("text"),
-                  py::arg("source") = "the scene string")
-      .def_static("from_file", &PyScene::from_file, py::arg("path"))
-      .def_static("from_dict", &PyScene::from_dict, py::arg("sections"))
+                  py::arg("source") = "the scene string",
+                  "A scene from TOML text; `source` names it in error messages.")
+      .def_static("from_file", &PyScene::from_file, py::arg("path"),
+                  "A scene from a TOML file (a relative system.init is taken relative to it).")
+      .def_static("from_dict", &PyScene::from_dict, py::arg("sections"),
+                  "A scene from a dict of sections: {'system': {'N': 500, ...}, ...}.")
       .def("set", &PyScene::set, py::arg("key"), py::arg("value"),
            "Sets 'section.key' to a value and checks the scene (ConfigError: unchanged).")
       .def("update", &PyScene::update, py::arg("values"),
            "Sets several 'section.key' values, checked together.")
-      .def("get", &PyScene::get, py::arg("key"))
+      .def("get", &PyScene::get, py::arg("key"),
+           "The value of 'section.key' (KeyError if the scene does not set it); scene[key] "
+           "too.")
       .def("__getitem__", &PyScene::get)
-      .def("to_dict", &PyScene::to_dict)
-      .def("copy", [](const PyScene& s) { return PyScene(s); })
-      .def_property_readonly("text", &PyScene::text)
+      .def("to_dict", &PyScene::to_dict, "The scene as a dict of sections (a copy).")
+      .def(
+          "copy", [](const PyScene& s) { return PyScene(s); },
+          "An independent copy (set() on it leaves this scene unchanged).")
+      .def_property_readonly("text", &PyScene::text,
+                             "The scene as TOML text, as it is stored in run files (floats in "
+                             "their shortest form that reads back exactly).")
       .def("__str__", &PyScene::text)
       .def("__repr__",
            [](const PyScene& s) { return "jamflow.Scene(" + text_of(py::str(s.text())) + ")"; });
@@ -806,13 +935,16 @@ PYBIND11_MODULE(jamflow, m) {
       .def_readonly("timeseries", &RunResult::timeseries, "numpy arrays per observable")
       .def_readonly("final", &RunResult::final_,
                     "final configuration: positions (N x 3), diameters, species, cell, strain")
-      .def_readonly("warnings", &RunResult::warnings)
+      .def_readonly("warnings", &RunResult::warnings,
+                    "one line per failed verdict (steady, stable, decorrelated), as printed")
       .def_readonly("replicas", &RunResult::replicas,
                     "with several replicas: one RunResult per replica (else empty)")
       .def_readonly("file", &RunResult::file, "the HDF5 file written, or None")
-      .def_readonly("status", &RunResult::status)
+      .def_readonly("status", &RunResult::status,
+                    "'complete', or why the run stopped ('budget: stopped at t = ...')")
       .def_readonly("scene", &RunResult::scene, "the scene as run (TOML)")
-      .def_readonly("seed", &RunResult::seed)
+      .def_readonly("seed", &RunResult::seed,
+                    "the random seed of the (first) replica's initial positions")
       .def("__repr__", [](const RunResult& r) {
         return "<jamflow.RunResult " + r.status + ", " +
                std::to_string(py::len(r.timeseries["time"])) + " samples>";
@@ -822,7 +954,11 @@ PYBIND11_MODULE(jamflow, m) {
         py::arg("force") = false, py::arg("progress") = false,
         "Runs a scene as `jamflow run` does. With out, writes the same HDF5 and XYZ files (an "
         "existing output needs force=True); without, writes nothing. Ctrl-C stops the run "
-        "(its checkpoint OUT.h5.part continues with `jamflow run --resume`).");
+        "(its checkpoint OUT.h5.part continues with `jamflow run --resume`). progress=True "
+        "shows a tqdm bar (a line on sys.stderr without tqdm); a callable is called at most "
+        "every 50 ms with a dict (label, time, total, fraction, elapsed, eta, extra, finished; "
+        "total grows under \"auto\" lengths, and each replica's last report has finished=True "
+        "and fraction 1); an exception it raises stops the run.");
 
   py::class_<PySimulation>(m, "Simulation",
                            "A scene's system under a Python protocol loop: advance, look, change "
@@ -830,22 +966,33 @@ PYBIND11_MODULE(jamflow, m) {
       .def(py::init<py::handle, py::object>(), py::arg("scene"), py::arg("seed") = py::none())
       .def("advance", &PySimulation::advance, py::arg("duration"),
            "Advances by `duration` (tau_0). Ctrl-C stops at the end of a step.")
-      .def("advance_to", &PySimulation::advance_to, py::arg("time"))
-      .def_property_readonly("time", [](const PySimulation& s) { return s.sim().time(); })
+      .def("advance_to", &PySimulation::advance_to, py::arg("time"),
+           "Advances to the time `time` (tau_0, from the start). Ctrl-C stops at the end of a "
+           "step.")
+      .def_property_readonly(
+          "time", [](const PySimulation& s) { return s.sim().time(); },
+          "The simulation time reached (tau_0).")
       .def_property_readonly("observables", &PySimulation::observables,
                              "time, strain, volume, phi, pressure, sigma_xy, energy, "
                              "dissipation of the current configuration")
       .def_property_readonly("positions", &PySimulation::positions,
                              "N x 3 copy, id order, wrapped into the cell")
       .def_property_readonly("forces", &PySimulation::forces, "N x 3 copy, id order")
-      .def_property_readonly("configuration", &PySimulation::configuration)
-      .def_property_readonly("statistics", &PySimulation::statistics)
-      .def_property_readonly("n",
-                             [](const PySimulation& s) { return s.sim().model().state().size(); })
-      .def_property_readonly("seed", [](const PySimulation& s) { return s.sim().seed(); })
+      .def_property_readonly("configuration", &PySimulation::configuration,
+                             "positions (N x 3), diameters, species, cell (3 x 3, rows the "
+                             "lattice vectors) and strain, copies")
+      .def_property_readonly("statistics", &PySimulation::statistics,
+                             "the integrator's counters (steps, force evaluations, ...)")
+      .def_property_readonly(
+          "n", [](const PySimulation& s) { return s.sim().model().state().size(); },
+          "the number of particles N")
+      .def_property_readonly(
+          "seed", [](const PySimulation& s) { return s.sim().seed(); },
+          "the random seed of the initial positions")
       .def_property(
           "shear_rate", [](const PySimulation& s) { return s.sim().shear_rate(); },
-          [](PySimulation& s, double rate) { s.sim().set_shear_rate(rate); });
+          [](PySimulation& s, double rate) { s.sim().set_shear_rate(rate); },
+          "the shear rate gdot (settable: the next advance shears at the new rate)");
 
   m.def("sweep", &sweep, py::arg("path"), py::arg("out") = py::none(), py::kw_only(),
         py::arg("jobs") = 0, py::arg("progress") = false,

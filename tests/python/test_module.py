@@ -7,6 +7,7 @@ command line binary.
 import os
 import signal
 import subprocess
+import sys
 import threading
 
 import h5py
@@ -345,3 +346,99 @@ def test_analyze_returns_plain_objects_and_raises_one_line_errors(tmp_path):
     with pytest.raises(jamflow.ConfigError) as err:
         jamflow.analyze("hard-sphere", tmp_path / "missing.csv")
     assert "\n" not in str(err.value) and "missing.csv" in str(err.value)
+
+
+def _doc_text(obj):
+    """The docstring without pybind11's signature line(s)."""
+    doc = getattr(obj, "__doc__", None) or ""
+    lines = [l for l in doc.strip().splitlines() if l.strip()]
+    name = getattr(obj, "__name__", "")
+    return "\n".join(l for l in lines if not (name and l.startswith(name + "(")))
+
+
+def test_every_public_member_has_a_docstring():
+    missing = []
+    for name in dir(jamflow):
+        if name.startswith("_"):
+            continue
+        obj = getattr(jamflow, name)
+        if not callable(obj):
+            continue  # data (default_scene): described in the module's docstring
+        if not _doc_text(obj):
+            missing.append(name)
+        if isinstance(obj, type):
+            for member, value in vars(obj).items():
+                if member.startswith("_"):
+                    continue
+                if isinstance(value, staticmethod):
+                    value = value.__func__
+                if not _doc_text(value):
+                    missing.append(f"{name}.{member}")
+    assert not missing, "public members without a docstring: " + ", ".join(missing)
+    assert "default_scene" in jamflow.__doc__
+
+
+AUTO_SCENE = """
+[system]
+N = 100
+phi = 0.6
+[ensemble]
+kind = "constant_volume"
+[shear]
+rate = 1e-2
+[integrator]
+kind = "euler"
+dt = 0.1
+[run]
+t_eq = "auto"
+t_av = 20
+sample_every = 0.1
+"""
+
+
+def test_progress_goes_to_a_python_callback():
+    # t_eq = "auto": the run's length (the transient found plus t_av = 20) grows as it goes.
+    reports = []
+    jamflow.run(jamflow.Scene(AUTO_SCENE), progress=reports.append)
+    assert reports, "no progress reported"
+    assert all(set(r) == {"label", "time", "total", "fraction", "elapsed", "eta", "extra",
+                          "finished"} for r in reports)
+    times = [r["time"] for r in reports]
+    assert times == sorted(times)
+    assert all(r["time"] <= r["total"] and 0.0 <= r["fraction"] <= 1.0 for r in reports)
+    last = reports[-1]
+    assert last["finished"] and last["fraction"] == 1.0 and last["time"] == last["total"]
+    assert last["total"] > 20.0, last  # beyond the first estimate, t_av
+    assert [r["finished"] for r in reports].count(True) == 1
+
+
+def test_progress_true_shows_tqdm_or_a_line_on_sys_stderr(monkeypatch, capsys):
+    pytest.importorskip("tqdm")
+    scene = jamflow.Scene(AUTO_SCENE)
+    jamflow.run(scene, progress=True)
+    err = capsys.readouterr().err
+    assert "100%|" in err and "t = " in err, err  # a tqdm bar, at 100 % at the end
+    # Without tqdm: a line on sys.stderr (which Jupyter shows), ending at 100 %.
+    monkeypatch.setitem(sys.modules, "tqdm", None)
+    monkeypatch.setitem(sys.modules, "tqdm.auto", None)
+    jamflow.run(scene, progress=True)
+    err = capsys.readouterr().err
+    assert "|" not in err and err.endswith("\n"), err
+    assert err.rstrip("\n").split("\r")[-1].split("%")[0].endswith("100.0"), err
+
+
+def test_an_exception_in_the_progress_callback_stops_the_run():
+    calls = []
+
+    def fail(report):
+        calls.append(report)
+        raise RuntimeError("enough")
+
+    scene = jamflow.Scene(AUTO_SCENE)
+    scene.set("run.t_eq", 0.0)
+    scene.set("run.t_av", 1e5)  # 1e6 steps: minutes, unless stopped
+    with pytest.raises(RuntimeError, match="enough"):
+        jamflow.run(scene, progress=fail)
+    assert len(calls) == 1
+    with pytest.raises(jamflow.ConfigError, match="progress"):
+        jamflow.run(scene, progress="yes")
