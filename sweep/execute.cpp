@@ -423,8 +423,8 @@ int lock_task(const std::string& path) {
       ::close(fd);
       return -1;
     }
-    struct stat held {
-    }, named{};
+    struct stat held = {};
+    struct stat named = {};
     if (::fstat(fd, &held) == 0 && ::stat(path.c_str(), &named) == 0 &&
         held.st_dev == named.st_dev && held.st_ino == named.st_ino)
       return fd;
