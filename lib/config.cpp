@@ -503,18 +503,28 @@ std::string toml_text(const toml::table& table) {
   mark_floats(copy, floats);
   os << copy;
   std::string text = os.str();
-  // Each marker is printed once, as a quoted string: '...' or "...".
-  std::size_t from = 0;
-  for (std::size_t k = 0; k < floats.size(); ++k) {
-    const std::string m = marker(k);
-    const std::size_t at = text.find(m, from);
-    if (at == std::string::npos || at == 0 || at + m.size() >= text.size())
-      throw std::logic_error("toml_text: float marker not found");
-    const std::string value = toml_float(floats[k]);
-    text.replace(at - 1, m.size() + 2, value);
-    from = at - 1 + value.size();
+  // Each marker is printed once, as a quoted string ('...' or "..."), where toml++ lays out its
+  // float (not in the order of marking: a table's values come before its sub-tables).
+  std::string out;
+  out.reserve(text.size());
+  std::size_t done = 0, replaced = 0;
+  for (std::size_t at = text.find(kFloatMarker); at != std::string::npos;
+       at = text.find(kFloatMarker, done)) {
+    const std::size_t digits = at + kFloatMarker.size();
+    std::size_t k = 0;
+    const auto [end, ec] = std::from_chars(text.data() + digits, text.data() + text.size(), k);
+    const std::size_t close = static_cast<std::size_t>(end - text.data());
+    if (ec != std::errc() || k >= floats.size() || at == 0 || close + 1 >= text.size() ||
+        text[close] != '@' || text[close + 1] != text[at - 1])
+      throw std::logic_error("toml_text: a float marker was printed unexpectedly");
+    out.append(text, done, at - 1 - done).append(toml_float(floats[k]));
+    done = close + 2;
+    ++replaced;
   }
-  return text;
+  if (replaced != floats.size())
+    throw std::logic_error("toml_text: a float marker was not printed");
+  out.append(text, done, std::string::npos);
+  return out;
 }
 
 std::string Scene::text() const {

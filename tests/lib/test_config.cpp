@@ -150,6 +150,9 @@ TEST(Config, FloatsPrintShortestAndReadBackExactly) {
   EXPECT_EQ(Scene::parse(text, "t").legacy_text(), legacy);
   EXPECT_EQ(canonical_scene_text(legacy), text);
   EXPECT_EQ(canonical_scene_text("[x\n"), "");
+  // toml++ prints a table's values before its sub-tables, whatever their keys' order.
+  const Scene nested = Scene::parse("[run]\nz = 0.5\n[run.a]\nq = 0.25\n", "n.toml");
+  EXPECT_EQ(nested.text(), "[run]\nz = 0.5\n\n    [run.a]\n    q = 0.25\n") << nested.text();
 }
 
 TEST(Config, ShortestFloatsRoundTripBitForBit) {
