@@ -4,7 +4,10 @@
 
 #include <cmath>
 #include <filesystem>
+#include <optional>
+#include <string>
 
+#include "lib/error.hpp"
 #include "studies/diagnostics.hpp"
 #include "sweep/plan.hpp"
 
@@ -20,7 +23,9 @@ TEST(StudyTypedSettings, EulerAtOneThirdOfAPointOneRunsAtExactlyThatStep) {
   p.phi = 0.6;
   p.gdot = 1e-3;
   const IntegratorSetting setting = euler_setting(dt);
-  EXPECT_EQ(setting.dt, dt);
+  // The label's step and the typed settings the driver receives are the same double.
+  ASSERT_EQ(setting.settings.kind, "euler");
+  EXPECT_EQ(setting.settings.number("dt"), std::optional<double>(setting.dt));
   const StudyScene scene = scene_toml(p, setting, 0.0, 10.0, 0.5);
   ASSERT_TRUE(scene.integrator.has_value());
   const RunSpec spec = scene.spec({"run.threads=1"});
@@ -54,6 +59,40 @@ TEST(StudyTypedSettings, EulerAtOneThirdOfAPointOneRunsAtExactlyThatStep) {
     if (k == "steps")
       steps = v;
   EXPECT_EQ(steps, samples * steps_per_sample);
+}
+
+// Every typed value of a setting reaches the run's integrator (RESPA: a double, an integer and
+// two strings), and a key no integrator has is refused with the same one-line error a scene's
+// [integrator] section gets, naming the key.
+TEST(StudyTypedSettings, RespaValuesArriveAndAWrongKeyIsRefused) {
+  StatePoint p;
+  p.n = 100;
+  p.constant_pressure = false;
+  p.phi = 0.6;
+  p.gdot = 1e-3;
+  const double dt = 0.7 / 3.0;
+  const IntegratorSetting respa = respa_setting(dt, 3, "piston", "heun");
+  const RunSpec spec = scene_toml(p, respa, 0.0, 10.0, 0.5).spec();
+  EXPECT_EQ(spec.integrator.kind, "respa");
+  EXPECT_EQ(spec.integrator.number("dt"), std::optional<double>(dt));
+  EXPECT_EQ(spec.integrator.number("n_inner"), std::optional<double>(3.0));
+  using Value = IntegratorSettings::Value;
+  EXPECT_EQ(spec.integrator.values.at("inner"), Value(std::string("piston")));
+  EXPECT_EQ(spec.integrator.values.at("inner_scheme"), Value(std::string("heun")));
+  EXPECT_EQ(spec.make_integrator()->nominal_dt(), dt);
+  // The stored scene carries them too, so a rerun from the run file builds the same integrator.
+  EXPECT_EQ(parse_run_spec(Scene::parse(spec.scene_text, "stored")).integrator, spec.integrator);
+
+  IntegratorSetting typo = euler_setting(0.05);
+  typo.settings.set("dtt", 0.1);
+  try {
+    (void)scene_toml(p, typo, 0.0, 10.0, 0.5).spec();
+    ADD_FAILURE() << "an unknown [integrator] key was accepted";
+  } catch (const ConfigError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("[integrator] dtt"), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
 }
 
 // Through a stage's sweep file (the points of the studies run as `jamflow run` processes) the
