@@ -14,8 +14,13 @@ double CollapseQuality::error() const {
   return std::sqrt((2.0 + 4.0 * std::max(s - 1.0, 0.0)) / static_cast<double>(used));
 }
 
+double CollapseQuality::threshold() const {
+  return used > 0 ? 1.0 + 3.0 * std::sqrt(2.0 / static_cast<double>(used))
+                  : std::numeric_limits<double>::quiet_NaN();
+}
+
 bool CollapseQuality::acceptable() const {
-  return used > 0 && s <= 1.0 + 3.0 * std::sqrt(2.0 / static_cast<double>(used));
+  return used > 0 && s <= threshold();
 }
 
 namespace {

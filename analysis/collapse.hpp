@@ -28,6 +28,7 @@ struct CollapseQuality {
   // Consistent with a perfect collapse: S <= 1 + 3 sqrt(2/N_used), the
   // 3-sigma upper end of S for Gaussian residuals with the stated errors.
   bool acceptable() const;
+  double threshold() const;  // 1 + 3 sqrt(2/N_used); NaN when no point was used
 };
 
 struct CollapsePoint {

@@ -26,6 +26,7 @@
 
 #include "analysis/errors.hpp"
 #include "analysis/json.hpp"
+#include "lib/statistics.hpp"
 
 namespace jamflow::analysis {
 
@@ -218,11 +219,59 @@ TableForm table_form(const CsvTable& t) {
                    join(kShearColumns) + "; missing " + join(missing_s) + ")");
 }
 
+// A table whose errors come in two parts (<o>_block_err, <o>_replica_err: `jamflow sweep
+// --collect` since the parts were separated).
+bool separate_error_parts(const CsvTable& t) {
+  return std::any_of(t.header.begin(), t.header.end(), [](const std::string& h) {
+    return h.size() > 10 && h.compare(h.size() - 10, 10, "_block_err") == 0;
+  });
+}
+
+double replicas_of(const CsvTable& t, std::size_t r) {
+  const int c = t.column("replicas");
+  return c >= 0 ? std::atof(t.rows[r][static_cast<std::size_t>(c)].c_str()) : 0.0;
+}
+
+// Whether a row's errors include a replica scatter: from 3 replicas on in a table with separate
+// parts; in an older collected table whenever it has 2 replicas or more (its *_err were
+// collected as the larger of the block error and the scatter).
+bool errors_include_scatter(const CsvTable& t, std::size_t r) {
+  const double k = replicas_of(t, r);
+  return separate_error_parts(t) ? replica_scatter_used(k) : k >= 2.0;
+}
+
+// The errors of a row by the replica rule: with separate parts, each <o>_err of `errs` is
+// recomputed from <o>_block_err and <o>_replica_err (lib/statistics.hpp replica_point_error);
+// the basis says what they are made of.
+ErrorBasis row_errors(const CsvTable& t, std::size_t r,
+                      const std::vector<std::pair<std::string, double*>>& errs, double& replicas) {
+  const int c = t.column("replicas");
+  replicas = replicas_of(t, r);
+  if (c < 0)
+    return ErrorBasis::kGiven;
+  if (!separate_error_parts(t))
+    return replicas >= 2.0 ? ErrorBasis::kCollectedMax : ErrorBasis::kBlockOne;
+  const std::string where = t.path + ":" + std::to_string(t.line_numbers[r]);
+  for (const auto& [name, err] : errs) {
+    if (t.column(name + "_block_err") < 0)
+      continue;  // a column the collector does not split: as given
+    const double block = field_number(t, r, name + "_block_err");
+    const int rc = t.column(name + "_replica_err");
+    const std::string& cell = rc >= 0 ? t.rows[r][static_cast<std::size_t>(rc)] : std::string();
+    const double scatter = cell.empty() ? std::nan("") : field_number(t, r, name + "_replica_err");
+    *err = replica_point_error(block, scatter, replicas);
+  }
+  if (replica_scatter_used(replicas))
+    return ErrorBasis::kScatter;
+  return replicas >= 2.0 ? ErrorBasis::kBlockTwo : ErrorBasis::kBlockOne;
+}
+
 // Rows of a collected sweep table (`jamflow sweep --collect`) carry the runs' verdicts in the
 // columns steady, stable and decorrelated (1 pass, 0 fail, empty not checked). A row that is
 // not steady or not stable in some replica is left out. One whose blocks are shorter than two
-// correlation times (not decorrelated) is kept when it has two replicas or more: its errors
-// then include the scatter of independent replicas, which needs no decorrelated blocks.
+// correlation times (not decorrelated) is kept only when its errors include the scatter of
+// independent replicas, which needs no decorrelated blocks (errors_include_scatter: 3
+// replicas, or 2 in a table collected before the error parts were separate).
 // Returns the reason to leave the row out, or "".
 std::string failed_verdicts(const CsvTable& t, std::size_t r) {
   std::string why;
@@ -234,11 +283,13 @@ std::string failed_verdicts(const CsvTable& t, std::size_t r) {
     if (failed(v))
       why.append(why.empty() ? "" : ", ").append("not ").append(v);
   }
-  if (failed("decorrelated")) {
-    const int c = t.column("replicas");
-    const bool replicas = c >= 0 && std::atof(t.rows[r][static_cast<std::size_t>(c)].c_str()) >= 2;
-    if (!replicas)
-      why.append(why.empty() ? "" : ", ").append("not decorrelated (one replica)");
+  if (failed("decorrelated") && !errors_include_scatter(t, r)) {
+    const double k = replicas_of(t, r);
+    why.append(why.empty() ? "" : ", ")
+        .append("not decorrelated (")
+        .append(k >= 2.0 ? std::to_string(static_cast<int>(k)) + " replicas; their scatter needs 3"
+                         : "one replica")
+        .append(")");
   }
   return why;
 }
@@ -279,6 +330,7 @@ GranularPoint granular_from_row(const CsvTable& t, std::size_t r) {
   p.phi_err = field_number(t, r, "phi_err");
   p.mu = field_number(t, r, "mu");
   p.mu_err = field_number(t, r, "mu_err");
+  p.error_basis = row_errors(t, r, {{"phi", &p.phi_err}, {"mu", &p.mu_err}}, p.replicas);
   check_positive(p.source + ": column 'P'", "P", p.pressure);
   check_positive(p.source + ": column 'gdot'", "gdot", p.shear_rate);
   check_phi(p.source + ": column 'phi'", p.phi);
@@ -309,21 +361,29 @@ ShearPoint shear_from_row(const CsvTable& t, std::size_t r, TableForm form) {
     s.sigma_err = field_number(t, r, "sigma_xy_err");
     check_positive(s.source + ": column 'sigma_xy' (the collapse works with log sigma_xy)",
                    "sigma_xy", s.sigma);
-    check_positive(s.source + ": column 'sigma_xy_err'", "sigma_xy_err", s.sigma_err);
     s.set = set_label_volume(s.n, s.phi);
     // A collected sweep table carries the measured pressure; other tables may not.
     const int cp = t.column("pressure"), ce = t.column("pressure_err");
-    if (cp >= 0 && ce >= 0 && !t.rows[r][static_cast<std::size_t>(cp)].empty() &&
-        !t.rows[r][static_cast<std::size_t>(ce)].empty()) {
+    const bool has_pressure = cp >= 0 && ce >= 0 &&
+                              !t.rows[r][static_cast<std::size_t>(cp)].empty() &&
+                              !t.rows[r][static_cast<std::size_t>(ce)].empty();
+    if (has_pressure) {
       s.pressure = field_number(t, r, "pressure");
       s.pressure_err = field_number(t, r, "pressure_err");
     }
+    std::vector<std::pair<std::string, double*>> errs = {{"sigma_xy", &s.sigma_err}};
+    if (has_pressure)
+      errs.push_back({"pressure", &s.pressure_err});
+    s.error_basis = row_errors(t, r, errs, s.replicas);
+    check_positive(s.source + ": column 'sigma_xy_err'", "sigma_xy_err", s.sigma_err);
   } else {
     GranularPoint g = granular_from_row(t, r);
     check_positive(s.source + ": column 'mu' (the collapse works with log sigma_xy = mu P)", "mu",
                    g.mu);
     s.sigma = g.mu * g.pressure;
     s.sigma_err = g.mu_err * g.pressure;
+    s.error_basis = g.error_basis;
+    s.replicas = g.replicas;
     s.set = set_label_pressure(g.n, g.pressure);
   }
   return s;
@@ -510,6 +570,17 @@ RunSummary read_summary_here(const std::string& path) {
   s.energy_balance = read_double_attr(g, "energy_balance", where);
   s.shear_rate = read_double_attr(g, "shear_rate", where);
   s.alpha = read_double_attr(g, "alpha", where);
+  // Written by combine_replicas with several replicas only.
+  if (has_attribute(g, "replicas"))
+    s.replicas = read_double_attr(g, "replicas", where);
+  const double nan = std::nan("");
+  auto optional = [&](const char* name) {
+    return has_attribute(g, name) ? read_double_attr(g, name, where) : nan;
+  };
+  s.sigma_xy_replica_err = optional("sigma_xy_replica_err");
+  s.pressure_replica_err = optional("pressure_replica_err");
+  s.phi_replica_err = optional("phi_replica_err");
+  s.mu_replica_err = optional("mu_replica_err");
   if (s.ensemble == "constant_pressure") {
     s.imposed_pressure = read_double_attr(g, "imposed_pressure", where);
     s.has_imposed_pressure = true;
@@ -546,7 +617,8 @@ void for_each_field(S& s, F&& f) {
   f(s.n);
   for (auto* x :
        {&s.sigma_xy, &s.sigma_xy_err, &s.pressure, &s.pressure_err, &s.phi, &s.phi_err, &s.eta,
-        &s.eta_err, &s.mu, &s.mu_err, &s.j, &s.energy_balance, &s.shear_rate, &s.alpha})
+        &s.eta_err, &s.mu, &s.mu_err, &s.j, &s.energy_balance, &s.shear_rate, &s.alpha, &s.replicas,
+        &s.sigma_xy_replica_err, &s.pressure_replica_err, &s.phi_replica_err, &s.mu_replica_err})
     f(*x);
   f(s.has_imposed_pressure);
   f(s.imposed_pressure);
@@ -779,6 +851,14 @@ void refuse_identical(const std::vector<Point>& points, const Key& key) {
   }
 }
 
+// A run file's /summary: *_err the block errors (of the mean over replicas), *_replica_err
+// the scatter.
+ErrorBasis run_file_basis(double replicas) {
+  if (replica_scatter_used(replicas))
+    return ErrorBasis::kScatter;
+  return replicas >= 2.0 ? ErrorBasis::kBlockTwo : ErrorBasis::kBlockOne;
+}
+
 }  // namespace
 
 std::vector<GranularPoint> read_granular(const std::vector<std::string>& paths) {
@@ -800,9 +880,11 @@ std::vector<GranularPoint> read_granular(const std::vector<std::string>& paths) 
       p.pressure = s.imposed_pressure;
       p.shear_rate = s.shear_rate;
       p.phi = s.phi;
-      p.phi_err = s.phi_err;
+      p.phi_err = replica_point_error(s.phi_err, s.phi_replica_err, s.replicas);
       p.mu = s.mu;
-      p.mu_err = s.mu_err;
+      p.mu_err = replica_point_error(s.mu_err, s.mu_replica_err, s.replicas);
+      p.replicas = s.replicas;
+      p.error_basis = run_file_basis(s.replicas);
       check_positive(where, "imposed_pressure", p.pressure);
       check_positive(where, "shear_rate", p.shear_rate);
       check_phi(where, p.phi);
@@ -844,7 +926,9 @@ std::vector<ShearPoint> read_shear(const std::vector<std::string>& paths) {
       p.phi = s.phi;
       p.shear_rate = s.shear_rate;
       p.sigma = s.sigma_xy;
-      p.sigma_err = s.sigma_xy_err;
+      p.sigma_err = replica_point_error(s.sigma_xy_err, s.sigma_xy_replica_err, s.replicas);
+      p.replicas = s.replicas;
+      p.error_basis = run_file_basis(s.replicas);
       check_phi(where, p.phi);
       check_positive(where, "shear_rate", p.shear_rate);
       check_positive(where + " (the collapse works with log sigma_xy)", "sigma_xy", p.sigma);
@@ -852,7 +936,7 @@ std::vector<ShearPoint> read_shear(const std::vector<std::string>& paths) {
       if (s.ensemble == "constant_volume") {
         p.set = set_label_volume(s.n, s.phi);
         p.pressure = s.pressure;
-        p.pressure_err = s.pressure_err;
+        p.pressure_err = replica_point_error(s.pressure_err, s.pressure_replica_err, s.replicas);
       } else {
         check_positive(where, "imposed_pressure", s.imposed_pressure);
         p.set = set_label_pressure(s.n, s.imposed_pressure);
@@ -913,6 +997,10 @@ std::vector<GranularPoint> merge_repeats(std::vector<GranularPoint> points) {
       std::tie(m.phi, m.phi_err) = weighted_mean(phis);
       std::tie(m.mu, m.mu_err) = weighted_mean(mus);
       m.source = merged_source(sources);
+      for (std::size_t i : idx) {
+        if (points[i].error_basis != m.error_basis)
+          m.error_basis = ErrorBasis::kMixed;
+      }
     }
     out.push_back(m);
   }
@@ -951,10 +1039,87 @@ std::vector<ShearPoint> merge_repeats(std::vector<ShearPoint> points) {
       // repeated runs, averaged (its error is neglected by the collapse).
       m.phi = phi_sum / static_cast<double>(idx.size());
       m.source = merged_source(sources);
+      for (std::size_t i : idx) {
+        if (points[i].error_basis != m.error_basis)
+          m.error_basis = ErrorBasis::kMixed;
+      }
     }
     out.push_back(m);
   }
   return out;
+}
+
+const char* error_basis_name(ErrorBasis b) {
+  switch (b) {
+    case ErrorBasis::kGiven:
+      return "as_given";
+    case ErrorBasis::kBlockOne:
+      return "block_1_replica";
+    case ErrorBasis::kBlockTwo:
+      return "block_2_replicas";
+    case ErrorBasis::kScatter:
+      return "block_or_replica_scatter";
+    case ErrorBasis::kCollectedMax:
+      return "collected_max_block_scatter";
+    case ErrorBasis::kMixed:
+      return "mixed";
+  }
+  return "unknown";
+}
+
+const char* error_basis_meaning(ErrorBasis b) {
+  switch (b) {
+    case ErrorBasis::kGiven:
+      return "errors as given in the table (no replica count)";
+    case ErrorBasis::kBlockOne:
+      return "the block error of one replica";
+    case ErrorBasis::kBlockTwo:
+      return "the block error of the mean over 2 replicas (their scatter, with one degree of "
+             "freedom, is not used: it needs 3 replicas)";
+    case ErrorBasis::kScatter:
+      return "the larger of the block error and the scatter of 3 or more replicas";
+    case ErrorBasis::kCollectedMax:
+      return "the larger of the block error and the scatter of 2 or more replicas, as an older "
+             "table was collected (the two parts are not in it separately; with 2 replicas the "
+             "scatter has one degree of freedom)";
+    case ErrorBasis::kMixed:
+      return "repeated state points of different error bases, merged";
+  }
+  return "unknown";
+}
+
+namespace {
+
+template <class P>
+PointErrors count_bases(const std::vector<P>& points) {
+  PointErrors e;
+  e.points = points.size();
+  for (ErrorBasis b : {ErrorBasis::kGiven, ErrorBasis::kBlockOne, ErrorBasis::kBlockTwo,
+                       ErrorBasis::kScatter, ErrorBasis::kCollectedMax, ErrorBasis::kMixed}) {
+    const auto n = static_cast<std::size_t>(std::count_if(
+        points.begin(), points.end(), [b](const P& p) { return p.error_basis == b; }));
+    if (n > 0)
+      e.counts.emplace_back(b, n);
+  }
+  return e;
+}
+
+}  // namespace
+
+PointErrors point_errors_of(const std::vector<GranularPoint>& points) {
+  return count_bases(points);
+}
+PointErrors point_errors_of(const std::vector<ShearPoint>& points) {
+  return count_bases(points);
+}
+
+std::string describe(const PointErrors& e) {
+  std::string out = "Point errors (replica scatter only from 3 replicas on): ";
+  for (std::size_t i = 0; i < e.counts.size(); ++i) {
+    out += (i ? "; " : "") + std::to_string(e.counts[i].second) + " of " +
+           std::to_string(e.points) + " points: " + error_basis_meaning(e.counts[i].first);
+  }
+  return out + ".";
 }
 
 }  // namespace jamflow::analysis

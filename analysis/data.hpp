@@ -14,6 +14,21 @@
 
 namespace jamflow::analysis {
 
+// What a point's errors are made of. A mean over replicas has a block error and a replica
+// scatter; the scatter is used (where larger) only from 3 replicas on (lib/statistics.hpp
+// replica_point_error).
+enum class ErrorBasis {
+  kGiven,         // a table without a replica count: its errors as given
+  kBlockOne,      // one replica: the block error
+  kBlockTwo,      // two replicas: the block error; their scatter (1 dof) is not used
+  kScatter,       // 3 replicas or more: the block error or the replica scatter, the larger
+  kCollectedMax,  // a table collected before the parts were separate: its errors are the
+                  // larger of the block error and the scatter of 2 or more replicas
+  kMixed,         // repeats of one state point with different bases, merged
+};
+const char* error_basis_name(ErrorBasis b);     // "given", "block_1_replica", ...
+const char* error_basis_meaning(ErrorBasis b);  // one phrase for a report
+
 struct GranularPoint {
   std::int64_t n = 0;
   double pressure = 0.0;    // imposed P
@@ -22,6 +37,8 @@ struct GranularPoint {
   double phi = 0.0, phi_err = 0.0;
   double mu = 0.0, mu_err = 0.0;
   std::string source;  // "file:line" or the run file, for messages
+  ErrorBasis error_basis = ErrorBasis::kGiven;
+  double replicas = 0.0;  // 0: not given
 };
 
 struct ShearPoint {
@@ -37,7 +54,19 @@ struct ShearPoint {
   // point with its own curve.
   std::string set;
   std::string source;
+  ErrorBasis error_basis = ErrorBasis::kGiven;
+  double replicas = 0.0;  // 0: not given
 };
+
+// How many of the points have each error basis, for the analyses' JSON and reports.
+struct PointErrors {
+  std::vector<std::pair<ErrorBasis, std::size_t>> counts;  // bases present, in enum order
+  std::size_t points = 0;
+};
+PointErrors point_errors_of(const std::vector<GranularPoint>& points);
+PointErrors point_errors_of(const std::vector<ShearPoint>& points);
+// One sentence: "Point errors: 20 of 27 points ... ; 7 ...".
+std::string describe(const PointErrors& e);
 
 // The /summary group and root attributes of one `jamflow run` output file.
 struct RunSummary {
@@ -48,6 +77,11 @@ struct RunSummary {
   double sigma_xy = 0, sigma_xy_err = 0, pressure = 0, pressure_err = 0;
   double phi = 0, phi_err = 0, eta = 0, eta_err = 0, mu = 0, mu_err = 0;
   double j = 0, energy_balance = 0, shear_rate = 0, alpha = 0;
+  // Several replicas: their count and the replica-scatter errors (NaN when absent; the *_err
+  // above are then the block errors of the mean over replicas).
+  double replicas = 1;
+  double sigma_xy_replica_err = 0, pressure_replica_err = 0, phi_replica_err = 0,
+         mu_replica_err = 0;
   bool has_imposed_pressure = false;
   double imposed_pressure = 0;
 };

@@ -529,6 +529,7 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
     throw InputError("viscosity window: give both phimin and phimax");
   }
   HardSphereResult r;
+  r.point_errors = point_errors_of(points);
   auto groups = group_by_size(points);
   if (groups.empty())
     throw InsufficientDataError("no data points");

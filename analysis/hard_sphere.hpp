@@ -195,6 +195,7 @@ struct FiniteSizeCollapse {
 };
 
 struct HardSphereResult {
+  PointErrors point_errors;            // what the input points' errors are made of
   std::vector<SizeFit> sizes;          // ascending N
   std::vector<UnfittedSize> unfitted;  // ascending N
   FiniteSizeCollapse collapse_phi, collapse_mu;

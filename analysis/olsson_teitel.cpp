@@ -303,6 +303,7 @@ OlssonTeitelResult analyze_olsson_teitel(const std::vector<ShearPoint>& points,
                                 hh.set_names().front() + ")");
   }
   OlssonTeitelResult r;
+  r.point_errors = point_errors_of(points);
   r.n = *sizes.begin();
   r.points = points.size();
   r.sets = hh.set_names().size();

@@ -126,6 +126,7 @@ struct MeasureComparison {
 };
 
 struct OlssonTeitelResult {
+  PointErrors point_errors;  // what the input points' errors are made of
   // At the paper's parameters, at the Houdayer–Hartmann optimum and at the pairwise measure's
   // own optimum (same optimiser and overlap constraint).
   std::vector<MeasureComparison> measures;

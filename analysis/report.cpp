@@ -8,6 +8,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "lib/statistics.hpp"
+
 namespace jamflow::analysis {
 
 namespace {
@@ -99,6 +101,8 @@ Json quality_json(const CollapseQuality& q) {
     j["error"] = q.error();
   }
   j["acceptable"] = q.acceptable();
+  if (q.used > 0)
+    j["threshold"] = q.threshold();
   j["points_used"] = static_cast<std::int64_t>(q.used);
   j["points_total"] = static_cast<std::int64_t>(q.total);
   return j;
@@ -144,6 +148,19 @@ Json measured_json(const Measured& m) {
   Json j = Json::object();
   j["value"] = m.value;
   j["error"] = m.error;
+  return j;
+}
+
+// What the points' errors are made of (data.hpp ErrorBasis), for every analysis' JSON.
+Json point_errors_json(const PointErrors& e) {
+  Json j = Json::object();
+  j["points"] = static_cast<std::int64_t>(e.points);
+  Json counts = Json::object();
+  for (const auto& [basis, n] : e.counts)
+    counts[error_basis_name(basis)] = static_cast<std::int64_t>(n);
+  j["counts"] = counts;
+  j["replica_scatter_from_replicas"] = kMinReplicasForScatter;
+  j["description"] = describe(e);
   return j;
 }
 
@@ -231,6 +248,7 @@ Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
   Json j = Json::object();
   j["analysis"] = "hard-sphere";
   j["inputs"] = strings_json(inputs);
+  j["point_errors"] = point_errors_json(r.point_errors);
   Json opts = Json::object();
   opts["envelope_z"] = o.envelope.z;
   opts["scale_errors"] = o.scale_errors;
@@ -375,6 +393,7 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
   std::ostringstream md;
   md << "# Granular rheology: hard-sphere and large-N limits\n\n";
   inputs_md(md, inputs);
+  md << describe(r.point_errors) << "\n\n";
   md << "Hard-sphere envelope: a point is kept when its phi and mu agree within "
      << fmt(o.envelope.z)
      << " sigma with the next lower pressure at the same J (or, where no lower pressure "
@@ -618,7 +637,7 @@ double paper_joint(std::size_t k, std::int64_t n) {
 
 double quadrature_systematic(const JointSoftFit& f, std::size_t k) {
   double s2 = 0.0;
-  for (double s : {f.pressure_window[k], f.j_window[k]})
+  for (double s : {f.pressure_window[k], f.j_window[k], f.form[k]})
     s2 += std::isfinite(s) ? s * s : 0.0;
   return std::sqrt(s2);
 }
@@ -634,7 +653,14 @@ Json joint_soft_json(const JointSoftFit& f, const YieldComparison* yield) {
     Json m = measured_json(f.params[k]);
     m["pressure_window"] = number_or_null(f.pressure_window[k]);
     m["J_window"] = number_or_null(f.j_window[k]);
+    m["fit_form"] = number_or_null(f.form[k]);
     m["systematic"] = quadrature_systematic(f, k);
+    const double ref = paper_joint(k, f.n);
+    if (std::isfinite(ref)) {
+      m["paper"] = ref;
+      m["paper_source"] =
+          k == 2 || k == 7 ? "Sec. V A" : "Table 2 size law at N = " + std::to_string(f.n);
+    }
     j[SoftLaw::names()[k]] = m;
   }
   {
@@ -650,10 +676,68 @@ Json joint_soft_json(const JointSoftFit& f, const YieldComparison* yield) {
     j["window_notes"] = strings_json(f.window_notes);
     j["systematics_meaning"] =
         "pressure_window (J_window): the largest shift of the parameter when the points at the "
-        "largest or at the smallest pressure (J) are dropped and the law refitted; systematic: "
-        "both in quadrature";
+        "largest or at the smallest pressure (J) are dropped and the law refitted; fit_form: the "
+        "shift when C_phi, b_phi, C_mu and b_mu are fixed at the paper's Table 2 law at this N "
+        "and the rest refitted; systematic: all three in quadrature";
+    Json fr = Json::object();
+    for (std::size_t k = 0; k < 10; ++k)
+      fr[SoftLaw::names()[k]] = number_or_null(f.form_refit[k]);
+    j["form_refit"] = fr;
+    j["form_notes"] = strings_json(f.form_notes);
   }
-  j["alpha"] = measured_json(f.alpha);
+  {
+    auto local_json = [](const std::vector<JointSoftFit::LocalExponent>& local) {
+      Json a = Json::array();
+      for (const auto& e : local) {
+        Json je = measured_json(e.exponent);
+        je["P_min"] = e.p_min;
+        je["P_max"] = e.p_max;
+        je["points"] = static_cast<std::int64_t>(e.points);
+        je["offset_shift"] = number_or_null(e.offset_shift);
+        je["total_error"] = number_or_null(e.total_error());
+        a.push_back(je);
+      }
+      return a;
+    };
+    auto drift_json = [](const ExponentDrift& d) {
+      Json jd = Json::object();
+      jd["defined"] = d.defined;
+      if (d.defined) {
+        jd["lowest_window"] = d.low;
+        jd["lowest_window_error"] = d.low_err;
+        jd["highest_window"] = d.high;
+        jd["highest_window_error"] = d.high_err;
+        jd["difference_sigma"] = d.sigma;
+        jd["lowest_window_minus_1_sigma"] = d.from_one_sigma;
+        jd["resolved"] = d.resolved;
+      }
+      return jd;
+    };
+    Json lj = Json::object();
+    lj["x"] = local_json(f.local_x);
+    lj["y"] = local_json(f.local_y);
+    lj["drift_x"] = drift_json(exponent_drift(f.local_x));
+    lj["drift_y"] = drift_json(exponent_drift(f.local_y));
+    lj["notes"] = strings_json(f.local_notes);
+    lj["meaning"] =
+        "the exponent fitted over three adjacent pressures at a time, with phi_J0 (mu_J0) and "
+        "the J-shape held at the joint optimum; error: statistical (scaled by sqrt(chi2/dof) "
+        "above 1) and offset_shift (the change when phi_J0 or mu_J0 moves by its error) in "
+        "quadrature; drift: lowest against highest window, resolved beyond 2 sigma";
+    j["local_exponents"] = lj;
+  }
+  {
+    // alpha = 1/x: each systematic of x propagated, |d alpha / d x| = 1/x^2.
+    Json a = measured_json(f.alpha);
+    const double d = 1.0 / (f.law.x * f.law.x);
+    a["pressure_window"] = number_or_null(d * f.pressure_window[2]);
+    a["J_window"] = number_or_null(d * f.j_window[2]);
+    a["fit_form"] = number_or_null(d * f.form[2]);
+    a["systematic"] = d * quadrature_systematic(f, 2);
+    a["paper"] = 1.33;
+    a["paper_source"] = "Sec. V A";
+    j["alpha"] = a;
+  }
   {
     // The bootstrap draws each point with its error times sqrt(max(1, chi2/dof)) of its half.
     Json sc = Json::object();
@@ -714,23 +798,52 @@ std::string joint_soft_markdown(const JointSoftFit& f, const YieldComparison* yi
      << fmt(f.noise_scale_phi, "%.2f") << " for phi, " << fmt(f.noise_scale_mu, "%.2f")
      << " for mu). chi2/dof: phi " << fmt(f.phi_fit.reduced_chi2(), "%.2f") << " (" << f.phi_fit.dof
      << " dof), mu " << fmt(f.mu_fit.reduced_chi2(), "%.2f") << ".\n\n";
-  md << "| parameter | joint fit (statistical) | pressure window | J window | paper | "
-        "difference (sigma, statistical and systematic in quadrature) |\n"
-        "|---|---|---|---|---|---|\n";
+  md << "| parameter | joint fit (statistical) | pressure window | J window | fit form | paper | "
+        "difference (sigma, statistical) | difference (sigma, statistical and systematic) |\n"
+        "|---|---|---|---|---|---|---|---|\n";
   auto sys_md = [](double s) { return std::isfinite(s) ? fmt(s, "%.2g") : std::string("-"); };
   for (std::size_t k = 0; k < 10; ++k) {
     const double ref = paper_joint(k, f.n);
     const double total = std::hypot(f.params[k].error, quadrature_systematic(f, k));
     md << "| " << SoftLaw::names()[k] << " | " << format_measured(f.params[k]) << " | "
        << sys_md(f.pressure_window[k]) << " | " << sys_md(f.j_window[k]) << " | "
-       << (std::isfinite(ref) ? fmt(ref) : "-") << " | "
+       << sys_md(f.form[k]) << " | " << (std::isfinite(ref) ? fmt(ref) : "-") << " | "
+       << (std::isfinite(ref) ? pull_md(f.params[k].value, f.params[k].error, ref) : "") << " | "
        << (std::isfinite(ref) ? pull_md(f.params[k].value, total, ref) : "") << " |\n";
   }
-  md << "| alpha = 1/x (yield stress) | " << format_measured(f.alpha) << " | 1.33 | "
-     << pull_md(f.alpha.value, f.alpha.error, 1.33) << " |\n\n";
-  md << "Paper values of phi_J0, C_phi, b_phi, mu_J0, C_mu, b_mu: Table 2's size law at N = " << f.n
-     << ". Systematics: the largest shift when the points at the largest or smallest P "
-        "(J) are dropped and the law refitted.\n\n";
+  {
+    const double d = 1.0 / (f.law.x * f.law.x);
+    const double total = std::hypot(f.alpha.error, d * quadrature_systematic(f, 2));
+    md << "| alpha = 1/x (yield stress) | " << format_measured(f.alpha) << " | "
+       << sys_md(d * f.pressure_window[2]) << " | " << sys_md(d * f.j_window[2]) << " | "
+       << sys_md(d * f.form[2]) << " | 1.33 | " << pull_md(f.alpha.value, f.alpha.error, 1.33)
+       << " | " << pull_md(f.alpha.value, total, 1.33) << " |\n\n";
+  }
+  md << "Paper values: x and y from Sec. V A; phi_J0, C_phi, b_phi, mu_J0, C_mu, b_mu from Table "
+        "2's size law at N = "
+     << f.n
+     << " (the data's N, not N -> infinity). Systematics: the largest shift when the points at "
+        "the largest or smallest P (J) are dropped and the law refitted; fit form: the shift "
+        "when the J-shape (C_phi, b_phi, C_mu, b_mu) is fixed at the paper's values at this N "
+        "and the rest refitted.\n\n";
+  for (const auto& n : f.form_notes)
+    md << "- " << n << "\n";
+  auto local_md = [&](const char* name, const std::vector<JointSoftFit::LocalExponent>& local) {
+    if (local.empty())
+      return;
+    md << "Local " << name << " over successive windows of three adjacent pressures (offset and "
+       << "J-shape held at the joint optimum; error: statistical and the offset's error in "
+          "quadrature):\n\n| P window | points | local "
+       << name << " |\n|---|---|---|\n";
+    for (const auto& e : local)
+      md << "| " << fmt(e.p_min, "%.3g") << " - " << fmt(e.p_max, "%.3g") << " | " << e.points
+         << " | " << format_measured({e.exponent.value, e.total_error()}) << " |\n";
+    md << "\n";
+  };
+  local_md("x", f.local_x);
+  local_md("y", f.local_y);
+  for (const auto& n : f.local_notes)
+    md << "- " << n << "\n";
   if (!f.window_refits.empty()) {
     md << "| refit | x | y | phi_J0 | mu_J0 |\n|---|---|---|---|---|\n";
     for (const auto& r : f.window_refits)
@@ -798,6 +911,7 @@ Json soft_json(const SoftResult& r, const SoftOptions& o, const std::vector<std:
   Json j = Json::object();
   j["analysis"] = "soft";
   j["inputs"] = strings_json(inputs);
+  j["point_errors"] = point_errors_json(r.point_errors);
   Json opts = Json::object();
   opts["envelope_z"] = o.hard_sphere.envelope.z;
   opts["scale_errors"] = o.scale_errors;
@@ -864,6 +978,7 @@ std::string soft_markdown(const SoftResult& r, const SoftOptions& o,
   std::ostringstream md;
   md << "# Soft granular rheology\n\n";
   inputs_md(md, inputs);
+  md << describe(r.point_errors) << "\n\n";
   md << "phi(P,J) = phi_J(P) - C_phi J^b_phi, mu(P,J) = mu_J(P) + C_mu J^b_mu; phi_J(P), "
         "mu_J(P) are the weighted-mean collapse of each pressure onto the P -> 0 shape "
      << (o.fixed_shape ? "given by --hs-params" : "of the same N's hard-sphere fit")
@@ -1007,6 +1122,7 @@ Json olsson_teitel_json(const OlssonTeitelResult& r, const OlssonTeitelOptions& 
   Json j = Json::object();
   j["analysis"] = "olsson-teitel";
   j["inputs"] = strings_json(inputs);
+  j["point_errors"] = point_errors_json(r.point_errors);
   j["measure"] = "Houdayer-Hartmann S (Phys. Rev. B 70, 014418 (2004)) in ln-ln scaled variables";
   j["N"] = static_cast<std::int64_t>(r.n);
   j["points"] = static_cast<std::int64_t>(r.points);
@@ -1075,6 +1191,7 @@ std::string olsson_teitel_markdown(const OlssonTeitelResult& r, const OlssonTeit
   std::ostringstream md;
   md << "# Olsson–Teitel scaling: collapse quality\n\n";
   inputs_md(md, inputs);
+  md << describe(r.point_errors) << "\n\n";
   md << "sigma = |phi - phi_J|^alpha G_pm(gdot / |phi - phi_J|^(alpha+beta)), N = " << r.n << ", "
      << r.points << " points on " << r.sets << " curves. Quality: Houdayer–Hartmann S (S ~ 1: "
      << "collapse consistent with the errors; S >> 1: no collapse). Parameter errors: "

@@ -15,6 +15,9 @@ namespace jamflow::analysis {
 
 Json measured_json(const Measured& m);
 
+// What the input points' errors are made of (data.hpp PointErrors) as JSON.
+Json point_errors_json(const PointErrors& e);
+
 // The error model of one fit (error_model.hpp) as JSON.
 Json error_model_json(const ErrorModel& m);
 

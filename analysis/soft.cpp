@@ -168,6 +168,7 @@ YieldLaw yield_law(const FitResult& phi_fit, const FitResult& mu_fit) {
 
 SoftResult analyze_soft(const std::vector<GranularPoint>& points, const SoftOptions& options) {
   SoftResult r;
+  r.point_errors = point_errors_of(points);
   auto groups = group_by_size(points);
   if (groups.empty())
     throw InsufficientDataError("no data points");
@@ -178,6 +179,8 @@ SoftResult analyze_soft(const std::vector<GranularPoint>& points, const SoftOpti
     try {
       s.joint = fit_soft_joint(pts, options.joint);
       soft_window_systematics(*s.joint, pts);
+      soft_form_systematics(*s.joint, pts);
+      soft_local_exponents(*s.joint, pts);
       for (const auto& note : s.joint->resolution_notes)
         r.warnings.push_back("N=" + std::to_string(n) + ": " + note);
     } catch (const AnalysisError& e) {
@@ -636,6 +639,130 @@ void soft_window_systematics(JointSoftFit& f, const std::vector<GranularPoint>& 
     refit(true, highest, f.pressure_window);
   for (bool highest : {true, false})
     refit(false, highest, f.j_window);
+}
+
+void soft_form_systematics(JointSoftFit& f, const std::vector<GranularPoint>& points) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  f.form.fill(nan);
+  f.form_refit.fill(nan);
+  f.form_notes.clear();
+  const double n = static_cast<double>(f.n);
+  const double c_phi = paper_table2_at("C_phi", n), b_phi = paper_table2_at("b_phi", n);
+  const double c_mu = paper_table2_at("C_mu", n), b_mu = paper_table2_at("b_mu", n);
+  const auto best = f.law.values();
+  f.form_refit[3] = c_phi;
+  f.form_refit[4] = b_phi;
+  f.form_refit[8] = c_mu;
+  f.form_refit[9] = b_mu;
+  // With the J-shape fixed, each half is a power law with offset in P.
+  auto refit = [&](bool mu_half) {
+    FitData d;
+    for (const auto& g : points) {
+      d.x.push_back(g.pressure);
+      d.y.push_back(mu_half ? g.mu - c_mu * std::pow(g.j, b_mu)
+                            : g.phi + c_phi * std::pow(g.j, b_phi));
+      d.sigma.push_back(mu_half ? g.mu_err : g.phi_err);
+    }
+    PowerLawForm form;
+    form.sign = mu_half ? -1.0 : 1.0;
+    form.a_name = mu_half ? "mu_J0" : "phi_J0";
+    form.c_name = mu_half ? "c_mu" : "c_phi";
+    form.b_name = mu_half ? "y" : "x";
+    FitOptions fo;
+    fo.label = std::string(mu_half ? "mu_J(P)" : "phi_J(P)") +
+               " with the paper's J-shape at N = " + std::to_string(f.n);
+    const std::size_t off = mu_half ? 5 : 0;
+    try {
+      const FitResult r = fit_power_law_offset(d, form, fo);
+      for (std::size_t k = 0; k < 3; ++k) {
+        f.form_refit[off + k] = r.params[k];
+        f.form[off + k] = std::fabs(r.params[k] - best[off + k]);
+      }
+    } catch (const AnalysisError& e) {
+      f.form_notes.push_back("refit " + fo.label + " not done: " + e.what());
+    }
+  };
+  refit(false);
+  refit(true);
+}
+
+double JointSoftFit::LocalExponent::total_error() const {
+  return std::hypot(exponent.error, offset_shift);
+}
+
+void soft_local_exponents(JointSoftFit& f, const std::vector<GranularPoint>& points) {
+  f.local_x.clear();
+  f.local_y.clear();
+  f.local_notes.clear();
+  const SoftLaw& law = f.law;
+  const ModelFunction power = [](double p, std::span<const double> q, std::span<double> grad) {
+    const double v = std::pow(p, q[1]);
+    if (!grad.empty()) {
+      grad[0] = v;
+      grad[1] = q[0] * v * std::log(p);
+    }
+    return q[0] * v;
+  };
+  auto window_fit = [&](bool mu_half, double p_min, double p_max, double offset) {
+    FitData d;
+    for (const auto& g : points) {
+      if (g.pressure < p_min * (1 - 1e-9) || g.pressure > p_max * (1 + 1e-9))
+        continue;
+      d.x.push_back(g.pressure);
+      d.y.push_back(mu_half ? offset + law.big_c_mu * std::pow(g.j, law.b_mu) - g.mu
+                            : g.phi + law.big_c_phi * std::pow(g.j, law.b_phi) - offset);
+      d.sigma.push_back(mu_half ? g.mu_err : g.phi_err);
+    }
+    FitOptions fo;
+    fo.label = std::string("local ") + (mu_half ? "y" : "x") + " over P = " + g3(p_min) + " to " +
+               g3(p_max);
+    const std::vector<double> start = {mu_half ? law.c_mu : law.c_phi, mu_half ? law.y : law.x};
+    return fit_least_squares(d, power, start, {mu_half ? "c_mu" : "c_phi", mu_half ? "y" : "x"},
+                             fo);
+  };
+  const auto& ps = f.pressures;  // ascending
+  for (bool mu_half : {false, true}) {
+    const double offset = mu_half ? law.mu_j0 : law.phi_j0;
+    const double offset_err = f.params[mu_half ? 5 : 0].error;
+    auto& out = mu_half ? f.local_y : f.local_x;
+    for (std::size_t i = 0; i + 3 <= ps.size(); ++i) {
+      JointSoftFit::LocalExponent e;
+      e.p_min = ps[i];
+      e.p_max = ps[i + 2];
+      try {
+        const FitResult r = window_fit(mu_half, e.p_min, e.p_max, offset);
+        e.points = static_cast<std::size_t>(r.dof) + 2;
+        e.exponent = r.at(1);
+        for (double s : {-1.0, 1.0}) {
+          try {
+            const FitResult m = window_fit(mu_half, e.p_min, e.p_max, offset + s * offset_err);
+            e.offset_shift = std::max(e.offset_shift, std::fabs(m.params[1] - r.params[1]));
+          } catch (const AnalysisError&) {
+            e.offset_shift = std::numeric_limits<double>::infinity();
+          }
+        }
+        out.push_back(e);
+      } catch (const AnalysisError& err) {
+        f.local_notes.push_back(std::string("local ") + (mu_half ? "y" : "x") + " over P = " +
+                                g3(e.p_min) + " to " + g3(e.p_max) + " not fitted: " + err.what());
+      }
+    }
+  }
+}
+
+ExponentDrift exponent_drift(const std::vector<JointSoftFit::LocalExponent>& local) {
+  ExponentDrift d;
+  if (local.size() < 2)
+    return d;
+  d.defined = true;
+  d.low = local.front().exponent.value;
+  d.low_err = local.front().total_error();
+  d.high = local.back().exponent.value;
+  d.high_err = local.back().total_error();
+  d.sigma = (d.low - d.high) / std::hypot(d.low_err, d.high_err);
+  d.from_one_sigma = (d.low - 1.0) / d.low_err;
+  d.resolved = std::fabs(d.sigma) > 2.0;
+  return d;
 }
 
 JointSoftFit fit_soft_joint(const std::vector<GranularPoint>& points,

@@ -92,6 +92,27 @@ struct JointSoftFit {
   std::vector<Refit> window_refits;
   std::array<double, 10> pressure_window{}, j_window{};
   std::vector<std::string> window_notes;  // refits that could not be done, and why
+  // Fit form: the J-shape (C_phi, b_phi, C_mu, b_mu) fixed at the paper's Table 2 law at this N
+  // and (phi_J0, c_phi, x), (mu_J0, c_mu, y) refitted; per parameter the shift from the free
+  // fit (NaN for the fixed four, and where the refit could not be done).
+  std::array<double, 10> form{};
+  std::array<double, 10> form_refit{};  // the refit's ten values (the fixed four included)
+  std::vector<std::string> form_notes;
+
+  // The local exponents over successive pressure windows (three adjacent pressures each):
+  // phi + C_phi J^b_phi - phi_J0 = c P^x (and mu_J0 + C_mu J^b_mu - mu = c P^y) fitted in each
+  // window with phi_J0 (mu_J0) and the J-shape held at the joint optimum. `offset_shift`: the
+  // largest change of the local exponent when phi_J0 (mu_J0) moves by its statistical error,
+  // the part of its error that holding the offset hides.
+  struct LocalExponent {
+    double p_min = 0.0, p_max = 0.0;
+    std::size_t points = 0;
+    Measured exponent;  // statistical (scaled by sqrt(chi2/dof) when above 1)
+    double offset_shift = 0.0;
+    double total_error() const;  // both in quadrature
+  };
+  std::vector<LocalExponent> local_x, local_y;  // ascending pressure
+  std::vector<std::string> local_notes;         // windows that could not be fitted, and why
 
   // Bootstrap standard deviation of any function of the law (0 without resamples).
   double spread(const std::function<double(const SoftLaw&)>& f) const;
@@ -105,6 +126,25 @@ JointSoftFit fit_soft_joint(const std::vector<GranularPoint>& points,
 
 // Fills f.window_refits, f.pressure_window and f.j_window (refits of `points` from f.law).
 void soft_window_systematics(JointSoftFit& f, const std::vector<GranularPoint>& points);
+
+// Fills f.form, f.form_refit and f.form_notes: the refit with the J-shape fixed at the paper's
+// Table 2 law at N = f.n.
+void soft_form_systematics(JointSoftFit& f, const std::vector<GranularPoint>& points);
+
+// Fills f.local_x, f.local_y and f.local_notes (needs f.law and f.params).
+void soft_local_exponents(JointSoftFit& f, const std::vector<GranularPoint>& points);
+
+// The drift of a local exponent between the lowest and the highest pressure window, and what
+// the numbers support saying about it.
+struct ExponentDrift {
+  bool defined = false;               // at least two windows
+  double low = 0.0, low_err = 0.0;    // the lowest-pressure window (total error)
+  double high = 0.0, high_err = 0.0;  // the highest-pressure window
+  double sigma = 0.0;                 // (low - high) / both errors
+  double from_one_sigma = 0.0;        // (low - 1) / low_err
+  bool resolved = false;              // |sigma| > 2
+};
+ExponentDrift exponent_drift(const std::vector<JointSoftFit::LocalExponent>& local);
 
 // Why x or y is not resolved to `target` given the fit's errors (empty when both are): the
 // notes fit_soft_joint attaches, for callers that replace the errors afterwards.
@@ -178,6 +218,7 @@ struct SoftSize {
 };
 
 struct SoftResult {
+  PointErrors point_errors;  // what the input points' errors are made of
   std::vector<SoftSize> sizes;
   std::vector<std::string> warnings;
 };

@@ -47,4 +47,21 @@ struct ReplicaAverage {
 // Requires means.size() == errors.size() >= 1; with one replica the scatter terms are 0.
 ReplicaAverage replica_average(const std::vector<double>& means, const std::vector<double>& errors);
 
+// The error of a state point's mean over `replicas` replicas, as the sweep's tables and the
+// analyses use it: the block error, or the replica-scatter error where that is larger, the
+// latter only from kMinReplicasForScatter replicas on. The standard deviation of two means has
+// one degree of freedom: it is below a third of the true spread one time in four and above
+// twice it one time in twenty (chi2 with 1 dof), so a maximum with it inflates or keeps errors
+// at random. Three replicas give two degrees of freedom, the least the seed's protocol runs
+// (SPEC §5: at least 3 independent runs per state point).
+inline constexpr double kMinReplicasForScatter = 3.0;
+inline bool replica_scatter_used(double replicas) {
+  return replicas >= kMinReplicasForScatter;
+}
+inline double replica_point_error(double block_error, double replica_error, double replicas) {
+  if (replica_scatter_used(replicas) && replica_error > block_error)  // false for NaN
+    return replica_error;
+  return block_error;
+}
+
 }  // namespace jamflow

@@ -13,6 +13,7 @@
 #include "driver/run.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
+#include "lib/statistics.hpp"
 #include "lib/text_file.hpp"
 #include "sweep/execute.hpp"
 
@@ -156,6 +157,15 @@ Collected collect(const Plan& plan, const std::string& path) {
        {"J", "energy_balance", "replicas", "steady", "stable", "decorrelated", "wall_seconds",
         "cpu_seconds", "cpu_from_wall", "force_evaluations", "force_pass_equivalents", "folder"})
     header.push_back(c);
+  // The two parts of each error, after every older column so that readers by position still
+  // work: <o>_err above is the block error, or the replica scatter where it is larger and there
+  // are at least 3 replicas (lib/statistics.hpp replica_point_error); <o>_block_err is the
+  // block error of the mean over replicas and <o>_replica_err the replica scatter's (empty with
+  // one replica).
+  for (const auto& o : observables) {
+    header.push_back(o + "_block_err");
+    header.push_back(o + "_replica_err");
+  }
 
   std::vector<std::vector<std::string>> table;
   for (const auto& row : rows) {
@@ -173,12 +183,11 @@ Collected collect(const Plan& plan, const std::string& path) {
     if (all_cp)
       cells.push_back(fmt(*row.spec.ensemble->imposed_pressure()));
     cells.push_back(fmt(row.spec.shear_rate));
+    const double replicas = several ? get("replicas") : 1.0;
     for (const auto& o : observables) {
       cells.push_back(cell(get(o)));
-      double err = get(o + "_err");
-      if (several)
-        err = std::max(err, get(o + "_replica_err"));
-      cells.push_back(cell(err));
+      cells.push_back(
+          cell(replica_point_error(get(o + "_err"), get(o + "_replica_err"), replicas)));
     }
     cells.push_back(cell(get("J")));
     cells.push_back(cell(get("energy_balance")));
@@ -191,6 +200,10 @@ Collected collect(const Plan& plan, const std::string& path) {
     cells.push_back(cell(row.force_evaluations));
     cells.push_back(cell(row.equivalents));
     cells.push_back(csv_text(fs::relative(plan.point_dir(*row.point), plan.out_dir).string()));
+    for (const auto& o : observables) {
+      cells.push_back(cell(get(o + "_err")));
+      cells.push_back(cell(several ? get(o + "_replica_err") : std::nan("")));
+    }
     table.push_back(std::move(cells));
   }
   if (ext == ".csv") {

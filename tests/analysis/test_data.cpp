@@ -75,6 +75,74 @@ TEST(CsvReader, CollectedTableRowsWithFailedVerdictsAreLeftOut) {
   EXPECT_EQ(read_shear({path}).size(), 3u);
 }
 
+// A table collected with the error parts separate (<o>_block_err, <o>_replica_err): a large
+// replica scatter changes a point's error with 3 replicas, never with 2, whatever <o>_err says;
+// a row not decorrelated is kept only when its error includes the scatter.
+TEST(CsvReader, ReplicaScatterOnlyFromThreeReplicas) {
+  ScratchDir dir;
+  const std::string head =
+      "point,N,P,gdot,phi,phi_err,mu,mu_err,replicas,steady,stable,decorrelated,folder,"
+      "phi_block_err,phi_replica_err,mu_block_err,mu_replica_err\n";
+  auto path = dir.write(
+      "parts.csv", head +
+                       // 2 replicas, scatter 100x the block error: not used
+                       "a,1000,1e-4,1e-6,0.63,0.01,0.2,0.1,2,1,1,1,p/a,1e-4,0.01,1e-3,0.1\n"
+                       // 3 replicas, the same numbers: the scatter is the error
+                       "b,1000,1e-4,1e-5,0.62,0.01,0.25,0.1,3,1,1,1,p/b,1e-4,0.01,1e-3,0.1\n"
+                       // 3 replicas, scatter below the block error: the block error
+                       "c,1000,1e-4,1e-7,0.64,2e-4,0.15,2e-3,3,1,1,1,p/c,2e-4,1e-5,2e-3,1e-4\n"
+                       // one replica: no scatter
+                       "d,1000,1e-4,1e-4,0.60,3e-4,0.3,3e-3,1,1,1,1,p/d,3e-4,,3e-3,\n"
+                       // not decorrelated with 2 replicas: left out
+                       "e,1000,1e-4,1e-3,0.58,0.01,0.4,0.1,2,1,1,0,p/e,1e-4,0.01,1e-3,0.1\n"
+                       // not decorrelated with 3 replicas: kept, with the scatter
+                       "f,1000,1e-4,1e-8,0.645,0.01,0.13,0.1,3,1,1,0,p/f,1e-4,0.01,1e-3,0.1\n");
+  auto pts = read_granular({path});
+  ASSERT_EQ(pts.size(), 5u);  // e left out
+  std::map<double, GranularPoint> by_rate;
+  for (const auto& p : pts)
+    by_rate[p.shear_rate] = p;
+  ASSERT_EQ(by_rate.count(1e-3), 0u);
+  EXPECT_DOUBLE_EQ(by_rate[1e-6].phi_err, 1e-4);
+  EXPECT_DOUBLE_EQ(by_rate[1e-6].mu_err, 1e-3);
+  EXPECT_EQ(by_rate[1e-6].error_basis, ErrorBasis::kBlockTwo);
+  EXPECT_DOUBLE_EQ(by_rate[1e-5].phi_err, 0.01);
+  EXPECT_DOUBLE_EQ(by_rate[1e-5].mu_err, 0.1);
+  EXPECT_EQ(by_rate[1e-5].error_basis, ErrorBasis::kScatter);
+  EXPECT_DOUBLE_EQ(by_rate[1e-7].phi_err, 2e-4);
+  EXPECT_DOUBLE_EQ(by_rate[1e-4].phi_err, 3e-4);
+  EXPECT_EQ(by_rate[1e-4].error_basis, ErrorBasis::kBlockOne);
+  EXPECT_DOUBLE_EQ(by_rate[1e-8].phi_err, 0.01);
+  // The count of each basis, and the sentence the analyses' JSON and reports carry.
+  const PointErrors e = point_errors_of(pts);
+  EXPECT_EQ(e.points, 5u);
+  std::map<ErrorBasis, std::size_t> counts(e.counts.begin(), e.counts.end());
+  EXPECT_EQ(counts[ErrorBasis::kBlockTwo], 1u);
+  EXPECT_EQ(counts[ErrorBasis::kScatter], 3u);
+  EXPECT_EQ(counts[ErrorBasis::kBlockOne], 1u);
+  const std::string text = describe(e);
+  EXPECT_NE(text.find("1 of 5 points: the block error of the mean over 2 replicas"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("3 of 5 points: the larger of the block error and the scatter of 3"),
+            std::string::npos)
+      << text;
+}
+
+// A table collected before the parts were separate: its *_err (the larger of the block error
+// and the scatter of 2 or more replicas) are taken as they are, and said to be so.
+TEST(CsvReader, OlderCollectedTableKeepsItsErrorsAndSaysWhatTheyAre) {
+  ScratchDir dir;
+  auto path = dir.write("old.csv",
+                        "point,N,P,gdot,phi,phi_err,mu,mu_err,replicas,steady,stable,decorrelated\n"
+                        "a,1000,1e-4,1e-6,0.63,0.01,0.2,0.1,2,1,1,0\n");
+  const auto pts = read_granular({path});
+  ASSERT_EQ(pts.size(), 1u);  // not decorrelated, but its errors include the scatter
+  EXPECT_DOUBLE_EQ(pts[0].phi_err, 0.01);
+  EXPECT_EQ(pts[0].error_basis, ErrorBasis::kCollectedMax);
+  EXPECT_NE(describe(point_errors_of(pts)).find("older table"), std::string::npos);
+}
+
 TEST(CsvReader, MalformedValueNamesFileLineAndColumn) {
   ScratchDir dir;
   auto path = dir.write("bad.csv",
@@ -216,6 +284,9 @@ struct RunSpec {
   bool with_summary = true;
   std::int64_t n = 1000;
   double phi = 0.63, shear_rate = 1e-6, imposed_pressure = 1e-4, mu = 0.2, sigma_xy = 2e-5;
+  // > 0: the summary of that many replicas (combine_replicas), with replica-scatter errors 50
+  // times the block errors.
+  double replicas = 0.0;
 };
 
 void write_run(const std::string& path, const RunSpec& s) {
@@ -244,6 +315,13 @@ void write_run(const std::string& path, const RunSpec& s) {
     put_string(g, "ensemble", s.ensemble, s.variable_strings);
     if (s.with_imposed_pressure)
       put_double(g, "imposed_pressure", s.imposed_pressure);
+    if (s.replicas > 0.0) {
+      put_double(g, "replicas", s.replicas);
+      put_double(g, "sigma_xy_replica_err", 50e-7);
+      put_double(g, "pressure_replica_err", 50e-7);
+      put_double(g, "phi_replica_err", 50e-4);
+      put_double(g, "mu_replica_err", 50e-3);
+    }
     H5Gclose(g);
   }
   H5Fclose(file);
@@ -279,6 +357,31 @@ TEST(RunFileReader, GranularUsesImposedPressureAndMergesRepeatedRuns) {
   EXPECT_DOUBLE_EQ(pts[0].j, 1e-2);
   EXPECT_NEAR(pts[0].mu, 0.21, 1e-12);
   EXPECT_NE(pts[0].source.find("+1 repeats"), std::string::npos);
+}
+
+// A run file's /summary holds the block errors in *_err and the replica scatter in
+// *_replica_err: the scatter enters a point's error only from 3 replicas on.
+TEST(RunFileReader, ReplicaScatterEntersOnlyFromThreeReplicas) {
+  ScratchDir dir;
+  RunSpec two, three;
+  two.replicas = 2.0;
+  three.replicas = 3.0;
+  three.shear_rate = 1e-5;  // another state point, not a repeat of `two`
+  write_run(dir.file("two.h5"), two);
+  write_run(dir.file("three.h5"), three);
+  auto pts = read_granular({dir.file("two.h5"), dir.file("three.h5")});
+  ASSERT_EQ(pts.size(), 2u);
+  std::sort(pts.begin(), pts.end(), [](auto& a, auto& b) { return a.replicas < b.replicas; });
+  EXPECT_DOUBLE_EQ(pts[0].phi_err, 1e-4);  // 2 replicas: the block error, scatter 50x ignored
+  EXPECT_DOUBLE_EQ(pts[0].mu_err, 1e-3);
+  EXPECT_EQ(pts[0].error_basis, ErrorBasis::kBlockTwo);
+  EXPECT_DOUBLE_EQ(pts[1].phi_err, 50e-4);  // 3 replicas: the larger scatter
+  EXPECT_DOUBLE_EQ(pts[1].mu_err, 50e-3);
+  EXPECT_EQ(pts[1].error_basis, ErrorBasis::kScatter);
+  const auto shear = read_shear({dir.file("two.h5"), dir.file("three.h5")});
+  ASSERT_EQ(shear.size(), 2u);
+  for (const auto& p : shear)
+    EXPECT_DOUBLE_EQ(p.sigma_err, p.replicas >= 3.0 ? 50e-7 : 1e-7) << p.replicas;
 }
 
 TEST(RunFileReader, ConstantVolumeRunsFeedTheCollapseOnly) {

@@ -66,6 +66,22 @@ TEST(Statistics, ReplicaAverage) {
   EXPECT_THROW(replica_average({1.0}, {}), std::invalid_argument);
 }
 
+// The point error of the tables and analyses: two replicas far apart do not change the block
+// error (their scatter has one degree of freedom), three do; a scatter below the block error,
+// or none (NaN), leaves the block error.
+TEST(Statistics, ReplicaScatterOnlyFromThreeReplicas) {
+  const ReplicaAverage two = replica_average({1.0, 3.0}, {0.01, 0.01});
+  EXPECT_DOUBLE_EQ(replica_point_error(two.block_error, two.replica_error, 2.0), two.block_error);
+  const ReplicaAverage three = replica_average({1.0, 3.0, 2.0}, {0.01, 0.01, 0.01});
+  EXPECT_GT(three.replica_error, 10.0 * three.block_error);
+  EXPECT_DOUBLE_EQ(replica_point_error(three.block_error, three.replica_error, 3.0),
+                   three.replica_error);
+  EXPECT_DOUBLE_EQ(replica_point_error(0.5, 0.1, 4.0), 0.5);
+  EXPECT_DOUBLE_EQ(replica_point_error(0.5, std::nan(""), 3.0), 0.5);
+  EXPECT_FALSE(replica_scatter_used(2.0));
+  EXPECT_TRUE(replica_scatter_used(3.0));
+}
+
 TEST(Statistics, ConstantSeriesHasNoCorrelationTime) {
   // phi at constant volume: a constant whose mean carries round-off must not look correlated.
   const std::vector<double> phi(3000, 0.1 + 0.2 + 0.319439);
