@@ -62,7 +62,7 @@ int study_main(const std::vector<std::string>& args) {
   app.add_flag("--no-plots", opt.no_plots, "skip PNG plots");
   app.add_flag("--report-only", opt.report_only,
                "rebuild the analysis and report from OUT/table.csv without running points "
-               "(hard-sphere, finite-size, soft-rheology)");
+               "(hard-sphere, finite-size, soft-rheology, olsson-teitel)");
   app.add_option("--only", opt.only, "study paper: run only these studies (in its order)")
       ->delimiter(',');
   std::vector<std::string> rev(args.rbegin(), args.rend());
@@ -79,6 +79,15 @@ int study_main(const std::vector<std::string>& args) {
                           ": --preset is not given; allowed: quick, standard, paper");
       if (!opt.only.empty() && name != "paper")
         throw ConfigError("jamflow study " + name + " --only; allowed with study paper only");
+      if (opt.report_only && !s.report_only) {
+        std::string allowed;
+        for (const auto& t : registry()) {
+          if (t.report_only)
+            allowed += (allowed.empty() ? "" : ", ") + t.name;
+        }
+        throw ConfigError("jamflow study " + name + " --report-only; allowed with " + allowed +
+                          " (this study has no report rebuilt from a table: it would run)");
+      }
       if (opt.out_dir.empty())
         opt.out_dir = "out/" + name + "-" + opt.preset;
       return s.run(opt);

@@ -50,6 +50,9 @@ struct StudyInfo {
   std::string name;
   std::string summary;
   StudyFn run;
+  // Whether `--report-only` can rebuild the study's report from the tables in its output folder;
+  // the others refuse it rather than run their points.
+  bool report_only = false;
 };
 
 // All studies known to this build, sorted by name.

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "driver/checkpoint.hpp"
+#include "lib/statistics.hpp"
 #include "studies/common.hpp"
 #include "sweep/execute.hpp"
 #include "sweep/plan.hpp"
@@ -100,6 +101,37 @@ std::string cost_line(const std::string& dir, double cpu_hours_estimate, double 
          " min of wall time (points finished earlier are not rerun).\n\n";
 }
 
+std::string cost_line_from_tables(const std::vector<const Table*>& tables,
+                                  double cpu_hours_estimate) {
+  double seconds = 0.0;
+  std::size_t rows = 0, from_wall = 0;
+  for (const Table* t : tables) {
+    for (std::size_t r = 0; r < t->rows.size(); ++r) {
+      const double cpu = t->number(r, "cpu_seconds");
+      const bool wall = !std::isfinite(cpu) || t->number(r, "cpu_from_wall") > 0.5;
+      const double v = std::isfinite(cpu) ? cpu : t->number(r, "wall_seconds");
+      if (!std::isfinite(v))
+        continue;
+      seconds += v;
+      ++rows;
+      from_wall += wall ? 1 : 0;
+    }
+  }
+  const bool all_wall = from_wall == rows;
+  return "- Cost: " + num(seconds / 3600.0, 3) + (all_wall ? " hours" : " CPU-hours") +
+         " measured over the " + std::to_string(rows) + " finished points (" +
+         (all_wall ? "the tables' wall seconds of each replica on one thread, summed: the tables "
+                     "were collected before CPU time was recorded"
+                   : "the tables' CPU seconds, one thread per replica, summed" +
+                         (from_wall > 0 ? "; " + std::to_string(from_wall) +
+                                              " points give their wall seconds, recorded before "
+                                              "CPU time was"
+                                        : std::string())) +
+         "), against " + num(cpu_hours_estimate, 3) +
+         " CPU-hours that the current cost model estimates for the same points (the report "
+         "was rebuilt from the tables, nothing was run).\n\n";
+}
+
 std::string read_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::ostringstream os;
@@ -139,6 +171,17 @@ std::string sigma_text(double ours, double err, double seed) {
   return buf;
 }
 
+namespace {
+
+// Whether a row's errors include the replica scatter, as analysis/data.cpp decides: 3 replicas
+// in a table with separate error parts (<o>_block_err), 2 in an older table.
+bool errors_include_scatter(const Table& table, std::size_t r) {
+  const double k = table.number(r, "replicas");
+  return table.column("phi_block_err") >= 0 ? replica_scatter_used(k) : k >= 2.0;
+}
+
+}  // namespace
+
 std::vector<std::vector<std::string>> flagged_rows(const Table& table) {
   std::vector<std::vector<std::string>> flagged;
   for (std::size_t r = 0; r < table.rows.size(); ++r) {
@@ -148,9 +191,13 @@ std::vector<std::vector<std::string>> flagged_rows(const Table& table) {
         why.append(why.empty() ? "" : ", ").append("not ").append(v);
     }
     if (!why.empty()) {
-      const bool kept = why == "not decorrelated" && table.number(r, "replicas") >= 2.0;
+      const bool kept = why == "not decorrelated" && errors_include_scatter(table, r);
       flagged.push_back(
-          {table.text(r, "point"), why, kept ? "kept: replica-scatter errors" : "left out"});
+          {table.text(r, "point"), why,
+           kept ? "kept: replica-scatter errors"
+                : (why == "not decorrelated" ? "left out: " + num(table.number(r, "replicas"), 2) +
+                                                   " replicas, the scatter needs 3"
+                                             : std::string("left out"))});
     }
   }
   return flagged;
@@ -165,19 +212,21 @@ std::string verdicts_markdown(const Table& table, const std::string& what) {
   }
   std::size_t left = 0;
   for (const auto& f : flagged)
-    left += f[2] == "left out";
+    left += f[2].rfind("left out", 0) == 0;
   if (left == 0)
     md << "No " << what << " point is left out of the analysis (none is unsteady or unstable).";
   else
     md << left << " of " << table.rows.size() << " " << what
-       << " points are left out of the analysis (not steady or not stable in some replica).";
-  md << " A point whose blocks are shorter than 2 tau (not decorrelated) is kept when it has "
-        "several replicas: its error bars then include the scatter of independent replicas "
-        "(analysis/README.md).\n\n";
+       << " points are left out of the analysis (not steady or not stable in some replica, "
+          "or not decorrelated without a replica scatter to stand in).";
+  md << " A point whose blocks are shorter than 2 tau (not decorrelated) is kept when its error "
+        "bars include the scatter of independent replicas: 3 replicas or more (2 in a table "
+        "collected before the block error and the scatter were separate columns; "
+        "analysis/README.md).\n\n";
   // The left-out points by name; the kept ones counted.
   std::vector<std::vector<std::string>> listed;
   for (const auto& f : flagged) {
-    if (f[2] == "left out")
+    if (f[2].rfind("left out", 0) == 0)
       listed.push_back(f);
   }
   if (!listed.empty())

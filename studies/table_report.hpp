@@ -33,6 +33,12 @@ double points_cpu_hours(const std::string& dir, std::size_t* from_wall = nullptr
 // this invocation's wall time.
 std::string cost_line(const std::string& dir, double cpu_hours_estimate, double wall_seconds);
 
+// The cost line of a report rebuilt from its tables alone (--report-only, the run files
+// elsewhere): the tables' cpu_seconds summed (wall_seconds for tables or rows without them, and
+// the line says how many), against the estimate.
+std::string cost_line_from_tables(const std::vector<const Table*>& tables,
+                                  double cpu_hours_estimate);
+
 // The analysis JSON written by `jamflow analyze` (an empty object, with a warning on stderr,
 // if it is absent or unreadable).
 analysis::Json read_analysis(const std::string& study, const std::string& json_path);
@@ -44,8 +50,8 @@ bool measured(const analysis::Json& j, const std::string& key, double& v, double
 std::string sigma_text(double ours, double err, double seed);
 
 // The rows whose verdicts failed: {point, verdict, what the analysis does with it}, as
-// analysis/data.cpp decides (not steady or not stable: left out; not decorrelated: kept with
-// two replicas or more).
+// analysis/data.cpp decides (not steady or not stable: left out; not decorrelated: kept when
+// its errors include a replica scatter, from 3 replicas on, or 2 in an older table).
 std::vector<std::vector<std::string>> flagged_rows(const Table& table);
 
 // The "## Verdicts" section of a report for one table.

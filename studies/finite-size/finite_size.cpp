@@ -17,7 +17,7 @@ int run(const StudyOptions& options) {
 const Registrar reg{{"finite-size",
                      "the hard-sphere analysis over N and its large-N limit: phi_J, mu_J, the "
                      "exponents and nu (Table 2, Figs. 5-6)",
-                     run}};
+                     run, true}};
 
 }  // namespace
 }  // namespace jamflow::studies

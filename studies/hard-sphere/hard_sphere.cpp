@@ -15,7 +15,7 @@ int run(const StudyOptions& options) {
 const Registrar reg{{"hard-sphere",
                      "hard-sphere granular rheology at constant pressure: mu(J), phi(J), the "
                      "P -> 0 envelope, phi_J, mu_J and the viscosity divergence (Figs. 2-4, 7)",
-                     run}};
+                     run, true}};
 
 }  // namespace
 }  // namespace jamflow::studies

@@ -156,9 +156,9 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
          << " ns), over the points it ran (the integrators ran different state points).\n";
   }
   md << "\nThe most expensive point: " << slowest << ", " << num(slowest_seconds, 3)
-     << " CPU seconds over its replicas. The estimate before the run was "
-     << num(run.cpu_hours_estimate, 3)
-     << " CPU-hours (each integrator's measured CPU time per particle and tau_0)";
+     << " CPU seconds over its replicas. The cost model (each integrator's measured CPU time "
+        "per particle and tau_0) estimates "
+     << num(run.cpu_hours_estimate, 3) << " CPU-hours for these points";
   if (all.estimated_seconds > 0.0 && all.seconds > 0.0)
     md << "; the finished points took " << num(all.seconds / all.estimated_seconds, 2)
        << " times their estimate";
@@ -268,6 +268,16 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
   }
 
   // 4. The report.
+  write_text((fs::path(out) / "report.md").string(),
+             report_markdown(study, grid, run, table, result, analysis_status, wall_seconds));
+  if (!options.quiet)
+    std::printf("%s: %s\n", study.c_str(), (fs::path(out) / "report.md").c_str());
+  return analysis_status == 0 ? 0 : 1;
+}
+
+std::string report_markdown(const std::string& study, const GridPreset& grid, const SweepStudy& run,
+                            const Table& table, const analysis::Json& result, int analysis_status,
+                            double wall_seconds) {
   std::ostringstream md;
   md << "# " << study << " study, preset `" << grid.name << "`\n\n";
   {
@@ -288,7 +298,7 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
     auto list = [](const auto& xs) {
       std::string t;
       for (const auto& x : xs)
-        t += (t.empty() ? "" : ", ") + num(double(x), 3);
+        t += (t.empty() ? "" : ", ") + num(double(x), 6);
       return t;
     };
     md << "Constant pressure, harmonic spheres (alpha_r = 2). The table: N = " << list(ns)
@@ -297,11 +307,9 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
     for (const auto& [kind, count] : integrators)
       md << " " << kind << " (" << count << ")";
     md << ". Run lengths per point: table.csv (run.t_eq, run.t_av).\n\n";
-    if (*reps.begin() < 3)
-      md << "Points with fewer than 3 replicas: their errors in table.csv are the larger of the "
-            "block error and the replica scatter, as collected; a scatter of 2 replicas is a "
-            "1-degree-of-freedom estimate, and the table has no separate block errors to fall "
-            "back on.\n\n";
+    // What the errors the fits use are made of, as the analysis read them.
+    if (result.is_object() && result.contains("point_errors"))
+      md << result.at("point_errors").at("description").as_string() << "\n\n";
   }
   md << "- Points: " << run.plan.points.size() << " x " << run.plan.replicas << " replicas, "
      << run.finished << " finished in every replica (table.csv); the sweep is in runs/ "
@@ -320,8 +328,9 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
   } else {
     md << "`jamflow analyze` leaves out points that are not steady or not stable in some "
           "replica; a point whose blocks are shorter than 2 tau (not decorrelated) is kept "
-          "when it has several replicas, because its error bars then include the scatter of "
-          "independent replicas (analysis/README.md).\n\n";
+          "only when its error bars include the scatter of independent replicas: 3 replicas or "
+          "more (2 in a table collected before the block error and the scatter were separate "
+          "columns; analysis/README.md).\n\n";
     md << markdown_table({"point", "verdict", "used"}, flagged);
   }
 
@@ -385,12 +394,21 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
       md << "N = " << n << " (phi; mu, each +- its error; points that are not steady or not "
          << "stable left out):\n\n"
          << markdown_table(header, rows) << "\n";
+      // Two tests per J at 2 sigma: if every pair agreed, a J value would still be flagged
+      // with probability 1 - (1 - 0.0455)^2 = 0.089 (independent Gaussian differences).
+      const double chance = 1.0 - std::pow(1.0 - 0.0455, 2.0);
+      const double expected = chance * compared;
+      const double spread = std::sqrt(compared * chance * (1.0 - chance));
       md << "At " << apart << " of " << compared
-         << " J values the two lowest pressures differ by more than 2 sigma in phi or mu"
-         << (apart > 0 ? ": there the data have not reached the hard-sphere (P -> 0) limit, and "
-                         "lower pressures are needed (the seed goes down to P = 1e-5)."
-                       : ".")
-         << "\n\n";
+         << " J values the two lowest pressures differ by more than 2 sigma in phi or mu; "
+         << num(expected, 2) << " would by chance if every pair agreed. ";
+      if (apart > expected + 2.0 * spread)
+        md << "That is more than chance: at those J the data have not reached the hard-sphere "
+              "(P -> 0) limit at the lowest pressure measured.";
+      else
+        md << "That is no more than chance gives: the data do not show that the two lowest "
+              "pressures differ.";
+      md << "\n\n";
     }
   }
 
@@ -459,9 +477,19 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
     const auto& ex = result.at("extrapolated");
     md << "## N -> infinity\n\n";
     if (ex.contains("skipped")) {
-      md << "Not extrapolated: " << ex.at("skipped").as_string()
-         << " The per-N values above, beside the seed's law at the same N, are the results; "
-            "they are not N -> infinity values.\n\n";
+      std::string why = ex.at("skipped").as_string();
+      if (!why.empty() && why.back() != '.')
+        why += '.';
+      int fitted = 0;
+      if (result.contains("sizes")) {
+        for (const auto& [n, fit] : result.at("sizes").members())
+          fitted += !(fit.contains("fitted") && !fit.at("fitted").as_bool());
+      }
+      md << "Not extrapolated: " << why
+         << (fitted > 0 ? " The per-N values above, beside the seed's law at the same N, are the "
+                          "results; they are not N -> infinity values.\n\n"
+                        : " No size was fitted either: there are no per-N values of the laws' "
+                          "parameters.\n\n");
     } else {
       std::vector<std::vector<std::string>> rows;
       int resolved = 0;
@@ -570,10 +598,7 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
   md << cost_section(study, table, run);
   md << "\nDetails of the fits, the envelope of every point and the figures of "
         "`jamflow analyze hard-sphere`: analysis.md. Flow curves: flow_curves.png.\n";
-  write_text((fs::path(out) / "report.md").string(), md.str());
-  if (!options.quiet)
-    std::printf("%s: %s\n", study.c_str(), (fs::path(out) / "report.md").c_str());
-  return analysis_status == 0 ? 0 : 1;
+  return md.str();
 }
 
 }  // namespace jamflow::studies::hard_sphere

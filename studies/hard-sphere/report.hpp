@@ -5,9 +5,11 @@
 #pragma once
 #include <string>
 
+#include "analysis/json.hpp"
 #include "studies/hard-sphere/points.hpp"
 #include "studies/study.hpp"
 #include "studies/sweep_study.hpp"
+#include "studies/table_report.hpp"
 
 namespace jamflow::studies::hard_sphere {
 
@@ -15,6 +17,13 @@ namespace jamflow::studies::hard_sphere {
 // OUT/flow_curves.png, OUT/<study>.h5 and OUT/report.md. Returns the exit status.
 int analyze_and_report(const std::string& study, const GridPreset& grid, const SweepStudy& run,
                        const StudyOptions& options, double wall_seconds);
+
+// The report.md text of analyze_and_report, from what it read: the sweep, the collected table,
+// the analysis JSON (`jamflow analyze hard-sphere`) and its exit status. Every number and
+// verdict comes from `table` and `result`.
+std::string report_markdown(const std::string& study, const GridPreset& grid, const SweepStudy& run,
+                            const Table& table, const analysis::Json& result, int analysis_status,
+                            double wall_seconds);
 
 // A grid study end to end: its points through the sweep engine (studies/sweep_study.hpp), then
 // analyze_and_report. Returns the exit status (that of the engine when it stopped early).

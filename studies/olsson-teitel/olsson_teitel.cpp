@@ -7,15 +7,22 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <map>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "analysis/analyze_cli.hpp"
+#include "lib/error.hpp"
 #include "studies/common.hpp"
+#include "studies/hard-sphere/report.hpp"
 #include "studies/olsson-teitel/points.hpp"
+#include "studies/olsson-teitel/report.hpp"
 #include "studies/study.hpp"
 #include "studies/sweep_study.hpp"
 #include "studies/table_report.hpp"
+#include "sweep/engine.hpp"
+#include "sweep/plan.hpp"
 
 namespace jamflow::studies {
 namespace {
@@ -47,6 +54,58 @@ std::string quality_cell(const Quality& q) {
   if (!q.present)
     return "undefined";
   return pm(q.s, q.error, 3) + " (" + num(q.used, 4) + "/" + num(q.total, 4) + " points)";
+}
+
+// One collapse measure at its own optimum, from the analysis JSON's "measures".
+struct MeasureVerdict {
+  std::string key, name, params;
+  double s = 0.0, error = 0.0, threshold = 0.0, used = 0.0;
+  bool acceptable = false;
+};
+
+// The Houdayer–Hartmann measure at its optimum (error: the bootstrap spread of S there) and the
+// pairwise-interpolation measure at its own optimum (error: the Gaussian spread); empty when the
+// JSON has no "measures" (an analysis from before the second measure).
+std::vector<MeasureVerdict> measure_verdicts(const analysis::Json& result, const Quality& q_best) {
+  std::vector<MeasureVerdict> out;
+  if (!result.is_object() || !result.contains("measures"))
+    return out;
+  const auto& ms = result.at("measures");
+  for (const auto& [key, name, label] :
+       {std::tuple<std::string, std::string, std::string>{
+            "houdayer_hartmann", "the Houdayer–Hartmann measure (the project's)",
+            "Houdayer-Hartmann optimum"},
+        {"pairwise_interpolation", "the pairwise-interpolation measure",
+         "pairwise-interpolation optimum"}}) {
+    for (std::size_t i = 0; i < ms.size(); ++i) {
+      const auto& m = ms.at(i);
+      if (m.at("label").as_string() != label)
+        continue;
+      const auto& q = m.at(key);
+      if (!q.at("value").is_number())
+        continue;
+      MeasureVerdict v;
+      v.key = key;
+      v.name = name;
+      v.params = std::string("(")
+                     .append(num(m.at("phi_J").as_number(), 4))
+                     .append(", ")
+                     .append(num(m.at("alpha").as_number(), 3))
+                     .append(", ")
+                     .append(num(m.at("beta").as_number(), 3))
+                     .append(")");
+      v.s = q.at("value").as_number();
+      v.error = key == "houdayer_hartmann" && std::isfinite(q_best.error)
+                    ? q_best.error
+                    : q.at("error").as_number();
+      v.used = q.at("points_used").as_number();
+      v.threshold = q.contains("threshold") ? q.at("threshold").as_number()
+                                            : 1.0 + 3.0 * std::sqrt(2.0 / v.used);
+      v.acceptable = q.at("acceptable").as_bool();
+      out.push_back(v);
+    }
+  }
+  return out;
 }
 
 int report(const VolumePreset& preset, const SweepStudy& run, const StudyOptions& options,
@@ -92,15 +151,39 @@ int report(const VolumePreset& preset, const SweepStudy& run, const StudyOptions
   }
 
   // 3. The report.
+  const std::string cost = options.report_only
+                               ? cost_line_from_tables({&table}, run.cpu_hours_estimate)
+                               : cost_line(out, run.cpu_hours_estimate, wall_seconds);
+  write_text((fs::path(out) / "report.md").string(),
+             olsson_teitel::report_markdown(preset, run, table, result, analysis_status, cost));
+  if (!options.quiet)
+    std::printf("%s: %s\n", kStudy, (fs::path(out) / "report.md").c_str());
+  if (!result.is_object() || !result.contains("best"))
+    return 1;  // the analysis could not be done on these points: the report says so
+  return analysis_status == 0 ? 0 : 1;
+}
+
+}  // namespace
+
+std::string olsson_teitel::report_markdown(const VolumePreset& preset, const SweepStudy& run,
+                                           const Table& table, const analysis::Json& result,
+                                           int analysis_status, const std::string& cost) {
   std::ostringstream md;
   md << "# olsson-teitel study, preset `" << preset.name << "`\n\n";
-  md << "Constant volume, harmonic spheres (alpha_r = 2), " << preset.why
-     << ". Integrators per point from the timestep study's findings (SPEC §4), chosen by the "
-        "pressure the soft granular rheology expects there: CVODE (rtol 1e-5) where P <= "
-        "1e-4, else RESPA (particles inner).\n\n";
+  {
+    // What the table holds, from the table: the integrators the points ran with.
+    std::map<std::string, int> integrators;
+    for (std::size_t r = 0; r < table.rows.size(); ++r)
+      ++integrators[table.column("integrator") >= 0 ? table.text(r, "integrator") : "?"];
+    md << "Constant volume, harmonic spheres (alpha_r = 2), " << preset.why
+       << ". Integrators (the table's integrator column, points):";
+    for (const auto& [kind, count] : integrators)
+      md << " " << kind << " (" << count << ")";
+    md << ".\n\n";
+  }
   md << "- Points: " << run.plan.points.size() << " x " << run.plan.replicas << " replicas, "
      << run.finished << " finished in every replica (table.csv).\n";
-  md << cost_line(out, run.cpu_hours_estimate, wall_seconds);
+  md << cost;
   {
     double gmin = 1e300, gmax = 0.0;
     std::set<double> below, above;
@@ -120,8 +203,7 @@ int report(const VolumePreset& preset, const SweepStudy& run, const StudyOptions
        << " (see the messages above and analysis.md): what it could not do is missing here.\n\n";
   if (!result.is_object() || !result.contains("best")) {
     md << "No analysis result.\n";
-    write_text((fs::path(out) / "report.md").string(), md.str());
-    return 1;  // the analysis could not be done on these points: the report says so
+    return md.str();
   }
   const auto& at = result.at("at");
   const auto& best = result.at("best");
@@ -145,7 +227,7 @@ int report(const VolumePreset& preset, const SweepStudy& run, const StudyOptions
         "resamples (at the seed's exponents, the Gaussian spread: nothing is refitted).\n\n";
   std::vector<std::vector<std::string>> rows;
   double v = 0, e = 0;
-  rows.push_back({"Olsson–Teitel, the seed's exponents",
+  rows.push_back({"Olsson–Teitel, the seed's exponents (Houdayer–Hartmann)",
                   "phi_J = " + num(at.at("phi_J").as_number(), 4) +
                       ", alpha = " + num(at.at("alpha").as_number(), 3) +
                       ", beta = " + num(at.at("beta").as_number(), 3),
@@ -155,8 +237,8 @@ int report(const VolumePreset& preset, const SweepStudy& run, const StudyOptions
     if (measured(best, p, v, e))
       best_params += (best_params.empty() ? "" : ", ") + std::string(p) + " = " + pm(v, e, 3);
   }
-  rows.push_back({"Olsson–Teitel, best collapse", best_params, quality_cell(q_best),
-                  q_best.acceptable ? "yes" : "no"});
+  rows.push_back({"Olsson–Teitel, best collapse (Houdayer–Hartmann)", best_params,
+                  quality_cell(q_best), q_best.acceptable ? "yes" : "no"});
   // A bootstrap that never moves the optimum (errors at rounding level) means the optimum
   // sits on the optimiser's overlap constraint: its errors say nothing.
   bool pinned = false;
@@ -200,18 +282,56 @@ int report(const VolumePreset& preset, const SweepStudy& run, const StudyOptions
         tradeoffs.push_back(name);
     }
   }
-  if (q_best.acceptable) {
-    md << "The data collapse onto two branches over the whole range measured (gdot and phi of "
-          "the table): S = "
-       << pm(q_best.s, q_best.error, 3) << " at the best exponents.";
+  // The whole range under each collapse measure: a conclusion only where both agree.
+  const std::vector<MeasureVerdict> measures = measure_verdicts(result, q_best);
+  const MeasureVerdict* hh = nullptr;
+  const MeasureVerdict* pw = nullptr;
+  for (const auto& m : measures)
+    (m.key == "houdayer_hartmann" ? hh : pw) = &m;
+  if (!measures.empty()) {
+    md << "Collapse of the whole range (gdot and phi of the table), each measure at its own "
+          "optimum (acceptable: S <= 1 + 3 sqrt(2/points used)):\n\n";
+    std::vector<std::vector<std::string>> mrows;
+    for (const auto& m : measures)
+      mrows.push_back(
+          {m.name, m.params, pm(m.s, m.error, 3), num(m.threshold, 3), num(m.used, 4),
+           m.acceptable ? "yes" : "no",
+           std::fabs(m.s - m.threshold) <= m.error ? "within its error" : "beyond its error"});
+    md << markdown_table({"measure", "at (phi_J, alpha, beta)", "S", "threshold", "points used",
+                          "acceptable", "S against the threshold"},
+                         mrows)
+       << "\n";
+  }
+  if (hh && pw && hh->acceptable != pw->acceptable) {
+    const MeasureVerdict& yes = hh->acceptable ? *hh : *pw;
+    const MeasureVerdict& no = hh->acceptable ? *pw : *hh;
+    md << "Whether the whole data set collapses onto two branches depends on the measure: "
+       << no.name << " gives S = " << pm(no.s, no.error, 3) << " above its threshold "
+       << num(no.threshold, 3) << " at " << no.params << ", " << yes.name
+       << " gives S = " << pm(yes.s, yes.error, 3) << " under its threshold "
+       << num(yes.threshold, 3) << " at " << yes.params
+       << ". Neither \"collapse\" nor \"no collapse\" is supported by both: the collapse is "
+          "measure-dependent.";
+  } else if (hh && pw) {
+    const bool ok = hh->acceptable;
+    md << "The data " << (ok ? "collapse" : "do **not** collapse")
+       << " onto two branches over the whole range under both measures: " << hh->name
+       << " S = " << pm(hh->s, hh->error, 3) << " (threshold " << num(hh->threshold, 3) << "), "
+       << pw->name << " S = " << pm(pw->s, pw->error, 3) << " (threshold " << num(pw->threshold, 3)
+       << "), each at its own optimum.";
   } else {
-    md << "The data do **not** collapse onto two branches over the whole range: S = "
-       << pm(q_best.s, q_best.error, 3) << " even at the best exponents.";
+    md << "Only the Houdayer–Hartmann measure is in the analysis JSON; by it the data "
+       << (q_best.acceptable ? "collapse" : "do not collapse")
+       << " over the whole range (S = " << pm(q_best.s, q_best.error, 3)
+       << " at its optimum). A verdict from one measure is not checked against another.";
+  }
+  const bool none = hh && pw ? !hh->acceptable && !pw->acceptable : !q_best.acceptable;
+  if (none) {
     if (good_subsets.empty()) {
       md << " No sub-range tested (near/far from phi_J, slow/fast) collapses acceptably on its "
-            "own either.";
+            "own either (Houdayer–Hartmann).";
     } else {
-      md << " A collapse is acceptable within: ";
+      md << " A collapse is acceptable (Houdayer–Hartmann) within: ";
       for (std::size_t i = 0; i < good_subsets.size(); ++i)
         md << (i ? "; " : "") << good_subsets[i];
       md << ", at that sub-range's own exponents (analysis.md).";
@@ -221,7 +341,8 @@ int report(const VolumePreset& preset, const SweepStudy& run, const StudyOptions
     md << " Optimising on ";
     for (std::size_t i = 0; i < tradeoffs.size(); ++i)
       md << (i ? ", " : "") << tradeoffs[i];
-    md << " makes the rest of the data collapse worse (the seed's trade-off).";
+    md << " makes the rest of the data collapse worse (the seed's trade-off; "
+          "Houdayer–Hartmann).";
   }
   md << "\n\n";
   if (q_soft.present && q_best.present) {
@@ -238,15 +359,34 @@ int report(const VolumePreset& preset, const SweepStudy& run, const StudyOptions
   md << "Figures: analysis_fig9.png (the collapse at the seed's and at the best exponents), "
         "analysis_flow.png (the flow curves and the soft law fitted to them). Details, the "
         "sub-ranges and the soft law's parameters: analysis.md.\n";
-  write_text((fs::path(out) / "report.md").string(), md.str());
-  if (!options.quiet)
-    std::printf("%s: %s\n", kStudy, (fs::path(out) / "report.md").c_str());
-  return analysis_status == 0 ? 0 : 1;
+  return md.str();
+}
+
+namespace {
+
+// --report-only: the sweep and table in OUT. A folder with the table but without its sweep
+// file (results committed before sweep files were kept) gets the preset's plan: its points and
+// replicas, and the cost the current model estimates for them.
+SweepStudy existing_points(const VolumePreset& preset, const std::string& out_dir) {
+  if (fs::exists(fs::path(out_dir) / "sweep.toml"))
+    return hard_sphere::existing_sweep(out_dir);
+  SweepStudy s;
+  s.table = (fs::path(out_dir) / "table.csv").string();
+  if (!fs::exists(s.table))
+    throw ConfigError("--report-only: " + s.table +
+                      " must exist (allowed: an output folder of an earlier run of the study)");
+  s.plan = sweep::parse_plan(volume_sweep_text(preset), "<" + preset.name + " preset>", out_dir,
+                             (fs::path(out_dir) / "runs").string());
+  s.finished = read_table(s.table).rows.size();
+  s.cpu_hours_estimate = sweep::estimate_cost(s.plan).cpu_hours;
+  return s;
 }
 
 int run(const StudyOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   const VolumePreset preset = olsson_teitel::preset(options.preset);
+  if (options.report_only)
+    return report(preset, existing_points(preset, options.out_dir), options, 0.0);
   SweepStudy points;
   if (auto status = run_sweep_study(kStudy, volume_sweep_text(preset), options, points))
     return *status;
@@ -258,7 +398,7 @@ int run(const StudyOptions& options) {
 const Registrar reg{{kStudy,
                      "Olsson–Teitel scaling against the soft granular rheology on one "
                      "constant-volume data set on both sides of phi_J (Fig. 9)",
-                     run}};
+                     run, true}};
 
 }  // namespace
 }  // namespace jamflow::studies
