@@ -1204,6 +1204,23 @@ std::string olsson_teitel_markdown(const OlssonTeitelResult& r, const OlssonTeit
   md << "| paper (Fig. 9) | 0.6474 | 1.33 | 2.55 | no acceptable collapse |\n\n";
   md << "Bootstrap spread of S at the resamples' optima: " << fmt(r.best.s_spread, "%.3g")
      << ".\n\n";
+  if (!r.measures.empty()) {
+    md << "The same collapse under a second measure (pairwise interpolation: each other curve "
+          "separately, analysis/collapse.hpp), so that a verdict does not rest on one "
+          "estimator; acceptable: S <= 1 + 3 sqrt(2/points used) under each.\n\n"
+       << "| at | phi_J | alpha | beta | Houdayer–Hartmann S | pairwise S "
+          "|\n|---|---|---|---|---|---|\n";
+    auto cell = [](const CollapseQuality& q) {
+      if (q.used == 0)
+        return std::string("undefined");
+      return quality_md(q) + ", threshold " + fmt(q.threshold(), "%.3g");
+    };
+    for (const auto& m : r.measures)
+      md << "| " << m.label << " | " << fmt(m.params.phi_j) << " | " << fmt(m.params.alpha, "%.3g")
+         << " | " << fmt(m.params.beta, "%.3g") << " | " << cell(m.houdayer_hartmann) << " | "
+         << cell(m.pairwise) << " |\n";
+    md << "\n";
+  }
   md << "## Soft granular rheology on the same points\n\n";
   if (r.soft) {
     const SoftComparison& c = *r.soft;

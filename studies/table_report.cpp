@@ -101,8 +101,8 @@ std::string cost_line(const std::string& dir, double cpu_hours_estimate, double 
          " min of wall time (points finished earlier are not rerun).\n\n";
 }
 
-std::string cost_line_from_tables(const std::vector<const Table*>& tables,
-                                  double cpu_hours_estimate) {
+double tables_hours(const std::vector<const Table*>& tables, std::size_t* rows_out,
+                    std::size_t* from_wall_out) {
   double seconds = 0.0;
   std::size_t rows = 0, from_wall = 0;
   for (const Table* t : tables) {
@@ -117,9 +117,20 @@ std::string cost_line_from_tables(const std::vector<const Table*>& tables,
       from_wall += wall ? 1 : 0;
     }
   }
+  if (rows_out)
+    *rows_out = rows;
+  if (from_wall_out)
+    *from_wall_out = from_wall;
+  return seconds / 3600.0;
+}
+
+std::string cost_line_from_tables(const std::vector<const Table*>& tables,
+                                  double cpu_hours_estimate) {
+  std::size_t rows = 0, from_wall = 0;
+  const double hours = tables_hours(tables, &rows, &from_wall);
   const bool all_wall = from_wall == rows;
-  return "- Cost: " + num(seconds / 3600.0, 3) + (all_wall ? " hours" : " CPU-hours") +
-         " measured over the " + std::to_string(rows) + " finished points (" +
+  return "- Cost: " + num(hours, 3) + (all_wall ? " hours" : " CPU-hours") + " measured over the " +
+         std::to_string(rows) + " finished points (" +
          (all_wall ? "the tables' wall seconds of each replica on one thread, summed: the tables "
                      "were collected before CPU time was recorded"
                    : "the tables' CPU seconds, one thread per replica, summed" +

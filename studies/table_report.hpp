@@ -39,6 +39,12 @@ std::string cost_line(const std::string& dir, double cpu_hours_estimate, double 
 std::string cost_line_from_tables(const std::vector<const Table*>& tables,
                                   double cpu_hours_estimate);
 
+// The hours those tables record: CPU seconds summed, wall seconds where no CPU time was
+// recorded; `rows` and `from_wall` (if given) count the rows summed and those given in wall
+// seconds.
+double tables_hours(const std::vector<const Table*>& tables, std::size_t* rows = nullptr,
+                    std::size_t* from_wall = nullptr);
+
 // The analysis JSON written by `jamflow analyze` (an empty object, with a warning on stderr,
 // if it is absent or unreadable).
 analysis::Json read_analysis(const std::string& study, const std::string& json_path);

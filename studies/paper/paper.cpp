@@ -135,6 +135,57 @@ std::string table2_section(const fs::path& analysis) {
   return md.str();
 }
 
+// --report-only: the part's report rebuilt from its tables when the study can (else the report
+// already in OUT/<study> as it is), and the hours its tables record.
+std::vector<std::string> report_only_row(const StudyInfo& info, const Part& part,
+                                         const StudyOptions& sub, std::ostringstream& headlines) {
+  const fs::path dir = sub.out_dir;
+  std::string status;
+  if (!fs::exists(dir)) {
+    status = "no results in this folder";
+  } else if (info.report_only) {
+    int code = 0;
+    try {
+      code = info.run(sub);
+    } catch (const std::exception& e) {
+      code = 2;
+      std::fprintf(stderr, "study paper: %s: %s\n", part.study, e.what());
+    }
+    status = code == 0   ? "report rebuilt from its tables"
+             : code == 1 ? "report rebuilt from its tables, with parts not computed (exit 1)"
+                         : "report not rebuilt (exit " + std::to_string(code) + ")";
+  } else {
+    status = "report as it was written (this study rebuilds it only by running)";
+  }
+  // The tables of the study and of its stages.
+  std::vector<Table> tables;
+  std::error_code ec;
+  for (const fs::path& t : {dir / "table.csv", dir / "constant-pressure" / "table.csv",
+                            dir / "constant-volume" / "table.csv"}) {
+    if (fs::exists(t, ec))
+      tables.push_back(read_table(t.string()));
+  }
+  std::vector<const Table*> ptrs;
+  for (const auto& t : tables)
+    ptrs.push_back(&t);
+  std::size_t rows = 0, from_wall = 0;
+  const double hours = tables_hours(ptrs, &rows, &from_wall);
+  const fs::path report = dir / "report.md";
+  if (fs::exists(report))
+    headlines << "\n### " << part.study << "\n\n" << headline(report) << "\n" << figures(dir);
+  return {part.seed,
+          part.study,
+          status,
+          "-",
+          rows == 0 ? "-"
+                    : num(hours, 3) + (from_wall == rows ? " (wall)"
+                                       : from_wall > 0   ? " (part wall)"
+                                                         : ""),
+          fs::exists(report) ? "[" + std::string(part.study) + "/report.md](" +
+                                   std::string(part.study) + "/report.md)"
+                             : "-"};
+}
+
 int run(const StudyOptions& options) {
   const fs::path out = options.out_dir;
   if (sweep::mpi_launched())
@@ -201,6 +252,11 @@ int run(const StudyOptions& options) {
     sub.out_dir = dir.string();
     sub.reuse = {out.string()};
     sub.tally = &tally;
+    if (options.report_only) {
+      // Rebuild what can be rebuilt from the tables in OUT/<study>; run nothing.
+      rows.push_back(report_only_row(*info, part, sub, headlines));
+      continue;
+    }
     if (!options.quiet && !options.dry_run)
       std::printf("study paper: %s (%s)\n", part.study, part.seed);
     const auto start = std::chrono::steady_clock::now();
@@ -247,10 +303,16 @@ int run(const StudyOptions& options) {
   md << "# jamflow study paper, preset `" << options.preset << "`\n\n"
      << "Every study of jamflow, run in dependency order into this folder, each with its own "
         "report, against the seed (Kawasaki, Coslovich, Ikeda and Berthier, PRE 91, 012203, "
-        "2015). Points that two studies share were run once (their logs say `reused`). CPU "
-        "hours are those of each study's collected points (one thread per replica; a reused "
-        "point counts in every study that uses it); wall time is this invocation's (points "
-        "finished before are not rerun).\n\n"
+        "2015). Points that two studies share were run once (their logs say `reused`). "
+     << (options.report_only
+             ? "This report was rebuilt from the results in the folder without running anything "
+               "(--report-only): CPU hours are those the studies' collected tables record (one "
+               "thread per replica; \"wall\": the tables predate CPU time and give wall "
+               "seconds; \"-\": the study keeps no collected table); wall time is not "
+               "measured.\n\n"
+             : "CPU hours are those of each study's collected points (one thread per replica; a "
+               "reused point counts in every study that uses it); wall time is this "
+               "invocation's (points finished before are not rerun).\n\n")
      << markdown_table({"the seed's", "study", "status", "wall time", "CPU hours", "report"}, rows);
   md << table2_section(out / "finite-size" / "analysis.json");
   md << "\n## Each study's opening\n" << headlines.str();
@@ -263,7 +325,7 @@ int run(const StudyOptions& options) {
 const Registrar reg{{"paper",
                      "every study in dependency order on one sweep engine, shared points run "
                      "once, one report beside the seed's Figs. 1-9 and Table 2",
-                     run}};
+                     run, true}};
 
 }  // namespace
 }  // namespace jamflow::studies

@@ -181,16 +181,29 @@ std::string soft_rheology::report_markdown(const Preset& preset, const SweepStud
         if (std::isfinite(v))
           xs.insert(v);
       }
-      std::string out;
-      for (double x : xs)
-        out += (out.empty() ? "" : ", ") + num(x, 3);
+      // Three digits, each value once (J = gdot / P of the rows differ in the last digits).
+      std::string out, last;
+      for (double x : xs) {
+        const std::string t = num(x, 3);
+        if (t != last)
+          out += (out.empty() ? "" : ", ") + t;
+        last = t;
+      }
       return out;
     };
-    md << "Harmonic spheres (alpha_r = 2). The constant-pressure table: N = "
-       << values(cp_table, "N") << "; P = " << values(cp_table, "P")
-       << "; J = " << values(cp_table, "J")
+    auto sizes = [](const Table& t) {
+      std::set<long long> ns;
+      for (std::size_t r = 0; r < t.rows.size(); ++r)
+        ns.insert(static_cast<long long>(t.number(r, "N")));
+      std::string out;
+      for (long long n : ns)
+        out += (out.empty() ? "" : ", ") + std::to_string(n);
+      return out;
+    };
+    md << "Harmonic spheres (alpha_r = 2). The constant-pressure table: N = " << sizes(cp_table)
+       << "; P = " << values(cp_table, "P") << "; J = " << values(cp_table, "J")
        << "; replicas per point: " << values(cp_table, "replicas")
-       << ". The constant-volume table: N = " << values(cv_table, "N")
+       << ". The constant-volume table: N = " << sizes(cv_table)
        << "; phi = " << values(cv_table, "system.phi") << "; gdot = " << values(cv_table, "gdot")
        << "; replicas per point: " << values(cv_table, "replicas")
        << ". Integrators per point: the tables' integrator column. The preset `"
