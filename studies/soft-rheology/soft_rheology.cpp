@@ -110,7 +110,7 @@ std::string comparison_sentence(const std::string& name, const JointNumber& v) {
      << opt_num(v.p_window) << ") in quadrature. ";
   if (std::fabs(z_stat) > 2.0 && std::fabs(z_total) <= 2.0)
     os << "The difference is within the systematics: the data do not resolve it beyond the "
-          "choice of J window and fit form.";
+          "choice of the J and pressure windows and of the fit form.";
   else if (std::fabs(z_total) > 2.0)
     os << "It differs from the paper's value beyond the systematics.";
   else
