@@ -14,8 +14,10 @@ struct StudyOptions {
   bool quiet = false;
   bool no_plots = false;
   // Rebuild the analysis and the report from the table already in the output folder
-  // (OUT/table.csv and OUT/sweep.toml; the soft-rheology study's in its two sub-folders)
-  // without running or collecting points: for committed results whose point files are not kept.
+  // (OUT/table.csv and OUT/sweep.toml; the soft-rheology study's in its two sub-folders; the
+  // olsson-teitel study's plan from its preset when no sweep.toml was kept; study paper
+  // rebuilds each part that can) without running or collecting points: for committed results
+  // whose point files are not kept. Studies without a table-based report refuse it.
   bool report_only = false;
   // Every study runs its points as sweeps (studies/sweep_study.hpp): points at once (0: the
   // cores), print the point count and cost and stop, or write a Slurm job array instead of
