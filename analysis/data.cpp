@@ -232,14 +232,6 @@ double replicas_of(const CsvTable& t, std::size_t r) {
   return c >= 0 ? std::atof(t.rows[r][static_cast<std::size_t>(c)].c_str()) : 0.0;
 }
 
-// Whether a row's errors include a replica scatter: from 3 replicas on in a table with separate
-// parts; in an older collected table whenever it has 2 replicas or more (its *_err were
-// collected as the larger of the block error and the scatter).
-bool errors_include_scatter(const CsvTable& t, std::size_t r) {
-  const double k = replicas_of(t, r);
-  return separate_error_parts(t) ? replica_scatter_used(k) : k >= 2.0;
-}
-
 // The errors of a row by the replica rule: with separate parts, each <o>_err of `errs` is
 // recomputed from <o>_block_err and <o>_replica_err (lib/statistics.hpp replica_point_error);
 // the basis says what they are made of.
@@ -263,15 +255,21 @@ ErrorBasis row_errors(const CsvTable& t, std::size_t r,
   }
   if (replica_scatter_used(replicas))
     return ErrorBasis::kScatter;
-  return replicas >= 2.0 ? ErrorBasis::kBlockTwo : ErrorBasis::kBlockOne;
+  if (replicas < 2.0)
+    return ErrorBasis::kBlockOne;
+  const int d = t.column("decorrelated");
+  const bool short_blocks = d >= 0 && t.rows[r][static_cast<std::size_t>(d)] == "0";
+  return short_blocks ? ErrorBasis::kBlockTwoShort : ErrorBasis::kBlockTwo;
 }
 
 // Rows of a collected sweep table (`jamflow sweep --collect`) carry the runs' verdicts in the
 // columns steady, stable and decorrelated (1 pass, 0 fail, empty not checked). A row that is
 // not steady or not stable in some replica is left out. One whose blocks are shorter than two
-// correlation times (not decorrelated) is kept only when its errors include the scatter of
-// independent replicas, which needs no decorrelated blocks (errors_include_scatter: 3
-// replicas, or 2 in a table collected before the error parts were separate).
+// correlation times (not decorrelated) is kept when it has two replicas or more: from 3 its
+// errors include the scatter of independent replicas, which needs no decorrelated blocks; with
+// 2 in a table with separate error parts its error is the block error, and its basis
+// (kBlockTwoShort) says that this understates it; an older table's errors include the scatter
+// of its 2 replicas, as collected.
 // Returns the reason to leave the row out, or "".
 std::string failed_verdicts(const CsvTable& t, std::size_t r) {
   std::string why;
@@ -283,14 +281,8 @@ std::string failed_verdicts(const CsvTable& t, std::size_t r) {
     if (failed(v))
       why.append(why.empty() ? "" : ", ").append("not ").append(v);
   }
-  if (failed("decorrelated") && !errors_include_scatter(t, r)) {
-    const double k = replicas_of(t, r);
-    why.append(why.empty() ? "" : ", ")
-        .append("not decorrelated (")
-        .append(k >= 2.0 ? std::to_string(static_cast<int>(k)) + " replicas; their scatter needs 3"
-                         : "one replica")
-        .append(")");
-  }
+  if (failed("decorrelated") && replicas_of(t, r) < 2.0)
+    why.append(why.empty() ? "" : ", ").append("not decorrelated (one replica)");
   return why;
 }
 
@@ -856,7 +848,9 @@ void refuse_identical(const std::vector<Point>& points, const Key& key) {
 ErrorBasis run_file_basis(double replicas) {
   if (replica_scatter_used(replicas))
     return ErrorBasis::kScatter;
-  return replicas >= 2.0 ? ErrorBasis::kBlockTwo : ErrorBasis::kBlockOne;
+  if (replicas < 2.0)
+    return ErrorBasis::kBlockOne;
+  return ErrorBasis::kBlockTwo;  // the run file's verdicts are not read here
 }
 
 }  // namespace
@@ -1057,6 +1051,8 @@ const char* error_basis_name(ErrorBasis b) {
       return "block_1_replica";
     case ErrorBasis::kBlockTwo:
       return "block_2_replicas";
+    case ErrorBasis::kBlockTwoShort:
+      return "block_2_replicas_short_blocks";
     case ErrorBasis::kScatter:
       return "block_or_replica_scatter";
     case ErrorBasis::kCollectedMax:
@@ -1076,6 +1072,9 @@ const char* error_basis_meaning(ErrorBasis b) {
     case ErrorBasis::kBlockTwo:
       return "the block error of the mean over 2 replicas (their scatter, with one degree of "
              "freedom, is not used: it needs 3 replicas)";
+    case ErrorBasis::kBlockTwoShort:
+      return "the block error of the mean over 2 replicas from blocks shorter than 2 tau (not "
+             "decorrelated): it understates the error, and 2 replicas give no scatter to use";
     case ErrorBasis::kScatter:
       return "the larger of the block error and the scatter of 3 or more replicas";
     case ErrorBasis::kCollectedMax:
@@ -1095,7 +1094,8 @@ PointErrors count_bases(const std::vector<P>& points) {
   PointErrors e;
   e.points = points.size();
   for (ErrorBasis b : {ErrorBasis::kGiven, ErrorBasis::kBlockOne, ErrorBasis::kBlockTwo,
-                       ErrorBasis::kScatter, ErrorBasis::kCollectedMax, ErrorBasis::kMixed}) {
+                       ErrorBasis::kBlockTwoShort, ErrorBasis::kScatter, ErrorBasis::kCollectedMax,
+                       ErrorBasis::kMixed}) {
     const auto n = static_cast<std::size_t>(std::count_if(
         points.begin(), points.end(), [b](const P& p) { return p.error_basis == b; }));
     if (n > 0)

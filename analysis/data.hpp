@@ -18,13 +18,14 @@ namespace jamflow::analysis {
 // scatter; the scatter is used (where larger) only from 3 replicas on (lib/statistics.hpp
 // replica_point_error).
 enum class ErrorBasis {
-  kGiven,         // a table without a replica count: its errors as given
-  kBlockOne,      // one replica: the block error
-  kBlockTwo,      // two replicas: the block error; their scatter (1 dof) is not used
-  kScatter,       // 3 replicas or more: the block error or the replica scatter, the larger
-  kCollectedMax,  // a table collected before the parts were separate: its errors are the
-                  // larger of the block error and the scatter of 2 or more replicas
-  kMixed,         // repeats of one state point with different bases, merged
+  kGiven,          // a table without a replica count: its errors as given
+  kBlockOne,       // one replica: the block error
+  kBlockTwo,       // two replicas: the block error; their scatter (1 dof) is not used
+  kBlockTwoShort,  // the same, from blocks shorter than 2 tau (not decorrelated): understated
+  kScatter,        // 3 replicas or more: the block error or the replica scatter, the larger
+  kCollectedMax,   // a table collected before the parts were separate: its errors are the
+                   // larger of the block error and the scatter of 2 or more replicas
+  kMixed,          // repeats of one state point with different bases, merged
 };
 const char* error_basis_name(ErrorBasis b);     // "given", "block_1_replica", ...
 const char* error_basis_meaning(ErrorBasis b);  // one phrase for a report

@@ -184,11 +184,14 @@ std::string sigma_text(double ours, double err, double seed) {
 
 namespace {
 
-// Whether a row's errors include the replica scatter, as analysis/data.cpp decides: 3 replicas
-// in a table with separate error parts (<o>_block_err), 2 in an older table.
-bool errors_include_scatter(const Table& table, std::size_t r) {
+// What a kept row's error is, as analysis/data.cpp reads it: the replica scatter from 3
+// replicas (or from 2 in a table collected before the error parts were separate), else the
+// block error of 2 replicas, which blocks this short understate.
+std::string kept_label(const Table& table, std::size_t r) {
   const double k = table.number(r, "replicas");
-  return table.column("phi_block_err") >= 0 ? replica_scatter_used(k) : k >= 2.0;
+  const bool scatter = table.column("phi_block_err") >= 0 ? replica_scatter_used(k) : k >= 2.0;
+  return scatter ? "kept: replica-scatter errors"
+                 : "kept: block errors of 2 replicas (understated: blocks shorter than 2 tau)";
 }
 
 }  // namespace
@@ -202,13 +205,9 @@ std::vector<std::vector<std::string>> flagged_rows(const Table& table) {
         why.append(why.empty() ? "" : ", ").append("not ").append(v);
     }
     if (!why.empty()) {
-      const bool kept = why == "not decorrelated" && errors_include_scatter(table, r);
+      const bool kept = why == "not decorrelated" && table.number(r, "replicas") >= 2.0;
       flagged.push_back(
-          {table.text(r, "point"), why,
-           kept ? "kept: replica-scatter errors"
-                : (why == "not decorrelated" ? "left out: " + num(table.number(r, "replicas"), 2) +
-                                                   " replicas, the scatter needs 3"
-                                             : std::string("left out"))});
+          {table.text(r, "point"), why, kept ? kept_label(table, r) : std::string("left out")});
     }
   }
   return flagged;
@@ -229,10 +228,11 @@ std::string verdicts_markdown(const Table& table, const std::string& what) {
   else
     md << left << " of " << table.rows.size() << " " << what
        << " points are left out of the analysis (not steady or not stable in some replica, "
-          "or not decorrelated without a replica scatter to stand in).";
-  md << " A point whose blocks are shorter than 2 tau (not decorrelated) is kept when its error "
-        "bars include the scatter of independent replicas: 3 replicas or more (2 in a table "
-        "collected before the block error and the scatter were separate columns; "
+          "or not decorrelated with one replica).";
+  md << " A point whose blocks are shorter than 2 tau (not decorrelated) is kept when it has "
+        "several replicas: from 3 its error bars include the scatter of independent replicas; "
+        "with 2 they are the block errors, which such short blocks understate (a table collected "
+        "before the block error and the scatter were separate columns holds the scatter of 2; "
         "analysis/README.md).\n\n";
   // The left-out points by name; the kept ones counted.
   std::vector<std::vector<std::string>> listed;
@@ -244,8 +244,8 @@ std::string verdicts_markdown(const Table& table, const std::string& what) {
     md << markdown_table({"point", "verdict", "used"}, listed) << "\n";
   if (flagged.size() > listed.size())
     md << flagged.size() - listed.size()
-       << " more are not decorrelated and are kept with replica-scatter errors (table.csv, "
-          "column decorrelated).\n\n";
+       << " more are not decorrelated and are kept (table.csv, column decorrelated; their errors "
+          "as said above).\n\n";
   return md.str();
 }
 

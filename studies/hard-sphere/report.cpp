@@ -328,9 +328,10 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
   } else {
     md << "`jamflow analyze` leaves out points that are not steady or not stable in some "
           "replica; a point whose blocks are shorter than 2 tau (not decorrelated) is kept "
-          "only when its error bars include the scatter of independent replicas: 3 replicas or "
-          "more (2 in a table collected before the block error and the scatter were separate "
-          "columns; analysis/README.md).\n\n";
+          "when it has several replicas: from 3 its error bars include the scatter of "
+          "independent replicas; with 2 they are the block errors, which such short blocks "
+          "understate (a table collected before the block error and the scatter were separate "
+          "columns holds the scatter of 2; analysis/README.md).\n\n";
     md << markdown_table({"point", "verdict", "used"}, flagged);
   }
 

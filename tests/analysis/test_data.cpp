@@ -77,7 +77,7 @@ TEST(CsvReader, CollectedTableRowsWithFailedVerdictsAreLeftOut) {
 
 // A table collected with the error parts separate (<o>_block_err, <o>_replica_err): a large
 // replica scatter changes a point's error with 3 replicas, never with 2, whatever <o>_err says;
-// a row not decorrelated is kept only when its error includes the scatter.
+// a row not decorrelated with 2 replicas keeps its block error, flagged as understated.
 TEST(CsvReader, ReplicaScatterOnlyFromThreeReplicas) {
   ScratchDir dir;
   const std::string head =
@@ -93,16 +93,17 @@ TEST(CsvReader, ReplicaScatterOnlyFromThreeReplicas) {
                        "c,1000,1e-4,1e-7,0.64,2e-4,0.15,2e-3,3,1,1,1,p/c,2e-4,1e-5,2e-3,1e-4\n"
                        // one replica: no scatter
                        "d,1000,1e-4,1e-4,0.60,3e-4,0.3,3e-3,1,1,1,1,p/d,3e-4,,3e-3,\n"
-                       // not decorrelated with 2 replicas: left out
+                       // not decorrelated with 2 replicas: the block error, flagged
                        "e,1000,1e-4,1e-3,0.58,0.01,0.4,0.1,2,1,1,0,p/e,1e-4,0.01,1e-3,0.1\n"
                        // not decorrelated with 3 replicas: kept, with the scatter
                        "f,1000,1e-4,1e-8,0.645,0.01,0.13,0.1,3,1,1,0,p/f,1e-4,0.01,1e-3,0.1\n");
   auto pts = read_granular({path});
-  ASSERT_EQ(pts.size(), 5u);  // e left out
+  ASSERT_EQ(pts.size(), 6u);
   std::map<double, GranularPoint> by_rate;
   for (const auto& p : pts)
     by_rate[p.shear_rate] = p;
-  ASSERT_EQ(by_rate.count(1e-3), 0u);
+  EXPECT_DOUBLE_EQ(by_rate[1e-3].phi_err, 1e-4);
+  EXPECT_EQ(by_rate[1e-3].error_basis, ErrorBasis::kBlockTwoShort);
   EXPECT_DOUBLE_EQ(by_rate[1e-6].phi_err, 1e-4);
   EXPECT_DOUBLE_EQ(by_rate[1e-6].mu_err, 1e-3);
   EXPECT_EQ(by_rate[1e-6].error_basis, ErrorBasis::kBlockTwo);
@@ -115,16 +116,21 @@ TEST(CsvReader, ReplicaScatterOnlyFromThreeReplicas) {
   EXPECT_DOUBLE_EQ(by_rate[1e-8].phi_err, 0.01);
   // The count of each basis, and the sentence the analyses' JSON and reports carry.
   const PointErrors e = point_errors_of(pts);
-  EXPECT_EQ(e.points, 5u);
+  EXPECT_EQ(e.points, 6u);
   std::map<ErrorBasis, std::size_t> counts(e.counts.begin(), e.counts.end());
   EXPECT_EQ(counts[ErrorBasis::kBlockTwo], 1u);
   EXPECT_EQ(counts[ErrorBasis::kScatter], 3u);
   EXPECT_EQ(counts[ErrorBasis::kBlockOne], 1u);
+  EXPECT_EQ(counts[ErrorBasis::kBlockTwoShort], 1u);
   const std::string text = describe(e);
-  EXPECT_NE(text.find("1 of 5 points: the block error of the mean over 2 replicas"),
+  EXPECT_NE(text.find("1 of 6 points: the block error of the mean over 2 replicas (their"),
             std::string::npos)
       << text;
-  EXPECT_NE(text.find("3 of 5 points: the larger of the block error and the scatter of 3"),
+  EXPECT_NE(text.find("3 of 6 points: the larger of the block error and the scatter of 3"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("1 of 6 points: the block error of the mean over 2 replicas from blocks "
+                      "shorter than 2 tau"),
             std::string::npos)
       << text;
 }
