@@ -689,7 +689,9 @@ Json joint_soft_json(const JointSoftFit& f, const YieldComparison* yield) {
     auto local_json = [](const std::vector<JointSoftFit::LocalExponent>& local) {
       Json a = Json::array();
       for (const auto& e : local) {
-        Json je = measured_json(e.exponent);
+        Json je = Json::object();
+        je["value"] = number_or_null(e.exponent.value);
+        je["error"] = number_or_null(e.exponent.error);
         je["P_min"] = e.p_min;
         je["P_max"] = e.p_max;
         je["points"] = static_cast<std::int64_t>(e.points);
@@ -703,12 +705,12 @@ Json joint_soft_json(const JointSoftFit& f, const YieldComparison* yield) {
       Json jd = Json::object();
       jd["defined"] = d.defined;
       if (d.defined) {
-        jd["lowest_window"] = d.low;
-        jd["lowest_window_error"] = d.low_err;
-        jd["highest_window"] = d.high;
-        jd["highest_window_error"] = d.high_err;
-        jd["difference_sigma"] = d.sigma;
-        jd["lowest_window_minus_1_sigma"] = d.from_one_sigma;
+        jd["lowest_window"] = number_or_null(d.low);
+        jd["lowest_window_error"] = number_or_null(d.low_err);
+        jd["highest_window"] = number_or_null(d.high);
+        jd["highest_window_error"] = number_or_null(d.high_err);
+        jd["difference_sigma"] = number_or_null(d.sigma);
+        jd["lowest_window_minus_1_sigma"] = number_or_null(d.from_one_sigma);
         jd["resolved"] = d.resolved;
       }
       return jd;

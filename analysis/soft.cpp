@@ -738,7 +738,8 @@ void soft_local_exponents(JointSoftFit& f, const std::vector<GranularPoint>& poi
             const FitResult m = window_fit(mu_half, e.p_min, e.p_max, offset + s * offset_err);
             e.offset_shift = std::max(e.offset_shift, std::fabs(m.params[1] - r.params[1]));
           } catch (const AnalysisError&) {
-            e.offset_shift = std::numeric_limits<double>::infinity();
+            // Not computable: the window's error is then unknown, and the drift leaves it out.
+            e.offset_shift = std::numeric_limits<double>::quiet_NaN();
           }
         }
         out.push_back(e);
@@ -750,8 +751,13 @@ void soft_local_exponents(JointSoftFit& f, const std::vector<GranularPoint>& poi
   }
 }
 
-ExponentDrift exponent_drift(const std::vector<JointSoftFit::LocalExponent>& local) {
+ExponentDrift exponent_drift(const std::vector<JointSoftFit::LocalExponent>& all) {
   ExponentDrift d;
+  std::vector<JointSoftFit::LocalExponent> local;  // the windows with a finite error
+  for (const auto& e : all) {
+    if (std::isfinite(e.exponent.value) && std::isfinite(e.total_error()) && e.total_error() > 0)
+      local.push_back(e);
+  }
   if (local.size() < 2)
     return d;
   d.defined = true;

@@ -144,6 +144,7 @@ struct ExponentDrift {
   double from_one_sigma = 0.0;        // (low - 1) / low_err
   bool resolved = false;              // |sigma| > 2
 };
+// Windows whose error is not finite are left out.
 ExponentDrift exponent_drift(const std::vector<JointSoftFit::LocalExponent>& local);
 
 // Why x or y is not resolved to `target` given the fit's errors (empty when both are): the

@@ -131,7 +131,10 @@ std::string local_exponent_text(const analysis::Json& joint, const std::string& 
      << "the joint optimum): ";
   for (std::size_t i = 0; i < windows.size(); ++i) {
     const auto& w = windows.at(i);
-    os << (i ? "; " : "") << pm(w.at("value").as_number(), w.at("total_error").as_number(), 3)
+    const bool known = w.at("value").is_number() && w.at("total_error").is_number();
+    os << (i ? "; " : "")
+       << (known ? pm(w.at("value").as_number(), w.at("total_error").as_number(), 3)
+                 : std::string("not computable"))
        << " over P = " << num(w.at("P_min").as_number(), 3) << " to "
        << num(w.at("P_max").as_number(), 3);
   }
