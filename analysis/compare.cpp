@@ -38,7 +38,7 @@ Estimate replica_mean(const std::vector<double>& means, const std::vector<double
                       ErrorSource* source) {
   const MeanStd ms = mean_std(means);
   Estimate e{ms.mean, 0.0};
-  if (means.size() >= kMinReplicasForScatter) {
+  if (means.size() >= std::size_t(kMinReplicasForScatter)) {
     e.error = ms.std / std::sqrt(double(means.size()));
     if (source)
       *source = ErrorSource::kReplicaScatter;

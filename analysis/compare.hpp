@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "lib/statistics.hpp"
+
 namespace jamflow::analysis {
 
 // One observable of one replica of one setting, over its averaging window.
@@ -51,9 +53,8 @@ struct CompareInput {
   std::vector<double> relative_tolerance;  // per observable; empty: none
 };
 
-// From this many replicas on, the error of a difference (and of a mean) is the replica scatter;
-// below, the block errors (a standard deviation of 2 values has a relative error of 71%).
-inline constexpr std::size_t kMinReplicasForScatter = 3;
+// From kMinReplicasForScatter replicas on (lib/statistics.hpp, the rule of every table), the
+// error of a difference (and of a mean) is the replica scatter; below, the block errors.
 
 enum class ErrorSource { kNone, kReplicaScatter, kBlocks };
 const char* error_source_name(ErrorSource s);  // "replica scatter", "block errors", "none"

@@ -54,7 +54,7 @@ ReplicaAverage replica_average(const std::vector<double>& means, const std::vect
 // twice it one time in twenty (chi2 with 1 dof), so a maximum with it inflates or keeps errors
 // at random. Three replicas give two degrees of freedom, the least the seed's protocol runs
 // (SPEC §5: at least 3 independent runs per state point).
-inline constexpr double kMinReplicasForScatter = 3.0;
+inline constexpr int kMinReplicasForScatter = 3;
 inline bool replica_scatter_used(double replicas) {
   return replicas >= kMinReplicasForScatter;
 }

@@ -707,7 +707,7 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
   md +=
       ". Errors of a difference come from the scatter of the paired differences over the "
       "replicas with " +
-      std::to_string(analysis::kMinReplicasForScatter) +
+      std::to_string(kMinReplicasForScatter) +
       " replicas or more, else from the block errors of the paired difference "
       "series (the table says which). The floor is the reference's own error. CPU cost is "
       "each run's CPU seconds (its `jamflow run` process, one thread) over its simulated time "
@@ -788,7 +788,7 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
   if (short_blocks > 0)
     md += std::to_string(short_blocks) + " of " + std::to_string(total) +
           " runs have blocks shorter than 2 τ, so their block errors are too small" +
-          (std::size_t(plan.replicas) >= analysis::kMinReplicasForScatter
+          (plan.replicas >= kMinReplicasForScatter
                ? std::string(": the differences' errors above come from the replica "
                              "scatter, which does not rely on the blocks")
                : std::string(", and so are the differences' errors above (too "
