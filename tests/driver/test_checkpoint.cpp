@@ -22,6 +22,7 @@
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "tests/driver/temp_dir.hpp"
+#include "tests/short_tests.hpp"
 
 extern char** environ;
 
@@ -342,9 +343,22 @@ TEST(Checkpoint, OutputIsCheckedBeforeComputing) {
 
 struct Child {
   pid_t pid = -1;
-  int wait() const {
+  // The exit status (128 + signal when killed). A child that runs on past `limit_seconds` (a run
+  // that should have been refused and computes instead) is killed and fails the test, rather
+  // than hanging it until ctest's timeout.
+  int wait(double limit_seconds = 600.0) const {
     int status = 0;
-    ::waitpid(pid, &status, 0);
+    const auto t0 = std::chrono::steady_clock::now();
+    while (::waitpid(pid, &status, WNOHANG) == 0) {
+      if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >
+          limit_seconds) {
+        ::kill(pid, SIGKILL);
+        ::waitpid(pid, &status, 0);
+        ADD_FAILURE() << "a jamflow process ran longer than " << limit_seconds << " s: killed";
+        return -1;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
     if (WIFSIGNALED(status))
       return 128 + WTERMSIG(status);
     return WEXITSTATUS(status);
@@ -592,8 +606,9 @@ TEST(ResumeCli, OlderCheckpointsWithoutDigestStillResume) {
   TempDir dir;
   const std::string out = dir.file("old.h5");
   // Long enough (4e4 steps) to be stopped after its second checkpoint, short enough to resume
-  // to the end in about a second.
-  write_text(dir.file("old.toml"), scene(out, kPressure, kEuler, 1000.0, 1000.0));
+  // to the end in about a second; under a sanitizer (minutes for the full length), a tenth.
+  const double t = testing_support::shortened(1000.0, 100.0);
+  write_text(dir.file("old.toml"), scene(out, kPressure, kEuler, t, t));
   Child c = spawn({"run", dir.file("old.toml"), "-q"});
   wait_for_checkpoints(out + ".part", 2);
   ::kill(c.pid, SIGTERM);
