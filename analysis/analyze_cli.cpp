@@ -13,6 +13,7 @@
 
 #include "analysis/data.hpp"
 #include "analysis/errors.hpp"
+#include "analysis/flow_curve.hpp"
 #include "analysis/hard_sphere.hpp"
 #include "analysis/json.hpp"
 #include "analysis/olsson_teitel.hpp"
@@ -188,12 +189,22 @@ int analyze_main(const std::vector<std::string>& args) {
       "--split-gdot", split_gdot, "slow/fast split in gdot (default: geometric median)");
   CLI::Option* size_opt =
       ot->add_option("--size", size, "system size N to analyse when the data hold several");
+  CLI::App* fc = app.add_subcommand(
+      "flow-curve",
+      "power-law and Herschel-Bulkley fits of sigma_xy(gdot) on each curve, and eta(phi) "
+      "divergence fits with phi_c free");
+  common(fc);
+  bool include_failed = false;
+  fc->add_flag("--include-failed", include_failed,
+               "include the rows whose verdicts failed (steady, stable, decorrelated), marked "
+               "as such in the JSON and the report");
 
   // An unknown analysis would otherwise be taken for a stray argument ("A subcommand is
   // required").
   if (!args.empty() && !args[0].empty() && args[0][0] != '-' && args[0] != "hard-sphere" &&
-      args[0] != "soft" && args[0] != "olsson-teitel") {
-    print_error("unknown analysis '" + args[0] + "'; allowed: hard-sphere, soft, olsson-teitel");
+      args[0] != "soft" && args[0] != "olsson-teitel" && args[0] != "flow-curve") {
+    print_error("unknown analysis '" + args[0] +
+                "'; allowed: hard-sphere, soft, olsson-teitel, flow-curve");
     return 2;
   }
   try {
@@ -239,6 +250,28 @@ int analyze_main(const std::vector<std::string>& args) {
       int code =
           write_outputs(out, hard_sphere_json(r, o, files), hard_sphere_markdown(r, o, files),
                         hard_sphere_plot_data(r), "hard_sphere.py", !no_plots);
+      for (const auto& f : r.failures)
+        print_error(f);
+      if (r.failures.empty())
+        return code;
+      // No size could be fitted, each for lack of data: the data cannot support the analysis.
+      const bool no_data = r.sizes.empty() && r.sizes_without_enough_data == r.unfitted.size();
+      return no_data ? 2 : 1;
+    }
+    if (fc->parsed()) {
+      FlowCurveOptions o;
+      o.scale_errors = !unscaled_errors;
+      std::vector<std::string> left_out;
+      VerdictAdmission verdicts;
+      verdicts.include_failed = include_failed;
+      verdicts.left_out = &left_out;
+      auto data = read_shear(files, verdicts);
+      FlowCurveResult r = analyze_flow_curves(data, o);
+      for (const auto& w : r.warnings)
+        print_warning(w);
+      int code = write_outputs(out, flow_curve_json(r, files, left_out, include_failed),
+                               flow_curve_markdown(r, files, left_out, include_failed),
+                               flow_curve_plot_data(r), "flow_curve.py", !no_plots);
       for (const auto& f : r.failures)
         print_error(f);
       return r.failures.empty() ? code : 1;

@@ -2,6 +2,7 @@
 //   jamflow analyze hard-sphere DATA... -o hs.json
 //   jamflow analyze soft DATA... -o soft.json
 //   jamflow analyze olsson-teitel DATA... -o ot.json
+//   jamflow analyze flow-curve DATA... -o fc.json [--include-failed]
 #pragma once
 
 #include <string>

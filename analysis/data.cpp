@@ -286,17 +286,20 @@ std::string failed_verdicts(const CsvTable& t, std::size_t r) {
   return why;
 }
 
-// The rows of a table that the analyses use, with one note on stderr for those left out.
-std::vector<std::size_t> usable_rows(const CsvTable& t) {
+// The rows of a table that the analyses use, with one note on stderr for those left out (or,
+// with include_failed, admitted although their verdicts failed).
+std::vector<std::size_t> usable_rows(const CsvTable& t, const VerdictAdmission& verdicts = {}) {
   std::vector<std::size_t> rows;
   std::string left;
   std::size_t count = 0;
   for (std::size_t r = 0; r < t.rows.size(); ++r) {
     const std::string why = failed_verdicts(t, r);
-    if (why.empty()) {
+    if (why.empty() || verdicts.include_failed)
       rows.push_back(r);
+    if (why.empty())
       continue;
-    }
+    if (verdicts.left_out && !verdicts.include_failed)
+      verdicts.left_out->push_back(t.path + ":" + std::to_string(t.line_numbers[r]) + ": " + why);
     ++count;
     if (count <= 10)
       left.append(left.empty() ? "" : "; ")
@@ -306,8 +309,10 @@ std::vector<std::size_t> usable_rows(const CsvTable& t) {
           .append(why);
   }
   if (count > 0) {
-    std::fprintf(stderr, "note: %s: %zu of %zu rows left out, their verdicts failed (%s%s)\n",
-                 t.path.c_str(), count, t.rows.size(), left.c_str(), count > 10 ? "; ..." : "");
+    std::fprintf(stderr, "note: %s: %zu of %zu rows %s, their verdicts failed (%s%s)\n",
+                 t.path.c_str(), count, t.rows.size(),
+                 verdicts.include_failed ? "included and marked although" : "left out",
+                 left.c_str(), count > 10 ? "; ..." : "");
   }
   return rows;
 }
@@ -906,6 +911,11 @@ std::vector<GranularPoint> read_granular(const std::vector<std::string>& paths) 
 }
 
 std::vector<ShearPoint> read_shear(const std::vector<std::string>& paths) {
+  return read_shear(paths, VerdictAdmission{});
+}
+
+std::vector<ShearPoint> read_shear(const std::vector<std::string>& paths,
+                                   const VerdictAdmission& verdicts) {
   if (paths.empty())
     throw InputError("no data files given");
   refuse_repeated_files(paths);
@@ -940,8 +950,10 @@ std::vector<ShearPoint> read_shear(const std::vector<std::string>& paths) {
     }
     CsvTable t = read_csv(path);
     TableForm form = table_form(t);
-    for (const std::size_t r : usable_rows(t))
+    for (const std::size_t r : usable_rows(t, verdicts)) {
       points.push_back(shear_from_row(t, r, form));
+      points.back().failed_verdicts = failed_verdicts(t, r);
+    }
   }
   refuse_identical(points, [](const ShearPoint& p) {
     return std::make_tuple(p.set, p.n, p.phi, p.shear_rate, p.sigma, p.sigma_err, p.pressure,
@@ -1017,6 +1029,8 @@ std::vector<ShearPoint> merge_repeats(std::vector<ShearPoint> points) {
       for (std::size_t i : idx) {
         sigmas.emplace_back(points[i].sigma, points[i].sigma_err);
         sources.push_back(points[i].source);
+        if (m.failed_verdicts.empty())  // a merge with a failed run is marked as failed
+          m.failed_verdicts = points[i].failed_verdicts;
         phi_sum += points[i].phi;
       }
       std::tie(m.sigma, m.sigma_err) = weighted_mean(sigmas);

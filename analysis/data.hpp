@@ -50,6 +50,9 @@ struct ShearPoint {
   // The measured pressure (constant volume), 0 when the data do not give it; the soft
   // granular rheology's comparison on the same points needs it.
   double pressure = 0.0, pressure_err = 0.0;
+  // Non-empty when the point's verdicts failed and it was admitted anyway
+  // (VerdictAdmission::include_failed): why, e.g. "not steady".
+  std::string failed_verdicts;
   // The curve the point belongs to: constant volume -> "N=..,phi=..";
   // constant pressure -> "N=..,P=..". The collapse measure never compares a
   // point with its own curve.
@@ -116,6 +119,15 @@ std::vector<GranularPoint> read_granular(const std::vector<std::string>& paths);
 // (same curve and gdot) are merged by inverse-variance weighting; identical
 // records are refused (see merge_repeats).
 std::vector<ShearPoint> read_shear(const std::vector<std::string>& paths);
+
+// What read_shear does with the rows of a collected sweep table whose verdicts failed (see
+// analysis/README.md): left out by default, with one note on stderr.
+struct VerdictAdmission {
+  bool include_failed = false;  // keep them, each marked in ShearPoint::failed_verdicts
+  std::vector<std::string>* left_out = nullptr;  // receives "file:line: why" per row left out
+};
+std::vector<ShearPoint> read_shear(const std::vector<std::string>& paths,
+                                   const VerdictAdmission& verdicts);
 
 // Whether two paths name the same file: the same file on disk where both exist (any spelling,
 // links included), else the same absolute path once normalised.

@@ -539,6 +539,7 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
     } catch (const InsufficientDataError& e) {
       r.unfitted.push_back({n, select_envelope(pts, options.envelope), e.what()});
       r.failures.push_back(e.what());
+      ++r.sizes_without_enough_data;
     } catch (const FitError& e) {
       r.unfitted.push_back({n, select_envelope(pts, options.envelope), e.what()});
       r.failures.push_back(e.what());

@@ -205,6 +205,9 @@ struct HardSphereResult {
   std::optional<ViscosityLaw> viscosity;
   std::vector<std::string> warnings;
   std::vector<std::string> failures;  // parts that could not be computed
+  // Sizes that could not be fitted for lack of data (InsufficientDataError), not for a fit that
+  // failed: when these are all of them, the data cannot support the analysis (exit status 2).
+  std::size_t sizes_without_enough_data = 0;
 };
 
 // Per-N envelope and fits; throws (InsufficientDataError, FitError) when a
