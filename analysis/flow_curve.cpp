@@ -234,14 +234,14 @@ FlowCurveResult analyze_flow_curves(const std::vector<ShearPoint>& points,
       }
     }
     for (const auto& p : c.points) {
-      const auto key = c.constant_pressure
-                           ? std::make_tuple(1, c.n, 0.0, c.set)
-                           : std::make_tuple(0, c.n, p.shear_rate, std::string());
+      const auto key = c.constant_pressure ? std::make_tuple(1, c.n, 0.0, c.set)
+                                           : std::make_tuple(0, c.n, p.shear_rate, std::string());
       Group& g = groups[key];
       g.n = c.n;
       g.constant_pressure = c.constant_pressure;
-      g.label = c.constant_pressure ? c.set
-                                    : "N=" + std::to_string(c.n) + ",gdot=" + format_key(p.shear_rate);
+      g.label = c.constant_pressure
+                    ? c.set
+                    : "N=" + std::to_string(c.n) + ",gdot=" + format_key(p.shear_rate);
       if (!jammed.empty())
         g.left_out.push_back({p.source, jammed});
       else

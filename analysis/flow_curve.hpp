@@ -55,7 +55,7 @@ struct FlowCurve {
   std::string set;
   std::int64_t n = 0;
   bool constant_pressure = false;
-  double state = 0.0;  // phi (constant volume) or P (constant pressure)
+  double state = 0.0;              // phi (constant volume) or P (constant pressure)
   std::vector<ShearPoint> points;  // ascending gdot
   FlowFit power_law, herschel_bulkley;
 };

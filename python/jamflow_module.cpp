@@ -719,6 +719,7 @@ py::object analyze(const std::string& kind, py::object data, py::object out, boo
                    py::kwargs options) {
   std::vector<std::string> args{kind == "hard_sphere"     ? "hard-sphere"
                                 : kind == "olsson_teitel" ? "olsson-teitel"
+                                : kind == "flow_curve"    ? "flow-curve"
                                                           : kind};
   auto os = py::module_::import("os");
   if (py::isinstance<py::str>(data) || py::hasattr(data, "__fspath__")) {
@@ -1002,10 +1003,11 @@ class _ProgressDisplay:
         "The points of a sweep file (checked), without running them.");
   m.def("analyze", &analyze, py::arg("kind"), py::arg("data"), py::arg("out") = py::none(),
         py::kw_only(), py::arg("plots") = false,
-        "`jamflow analyze KIND DATA...`: kind is 'hard-sphere', 'soft' or 'olsson-teitel'; "
+        "`jamflow analyze KIND DATA...`: kind is 'hard-sphere', 'soft', 'olsson-teitel' or "
+        "'flow-curve'; "
         "options as keywords (envelope_z=2, bootstrap=50). Returns the JSON result.");
   // One function per analysis, as the command line has one subcommand per analysis.
-  for (const char* kind : {"hard-sphere", "soft", "olsson-teitel"}) {
+  for (const char* kind : {"hard-sphere", "soft", "olsson-teitel", "flow-curve"}) {
     std::string name = std::string("analyze_") + kind;
     for (char& c : name)
       if (c == '-')

@@ -160,7 +160,8 @@ TEST(Cli, AnOutputThatIsAnInputIsRefused) {
 TEST(Cli, UnknownAnalysisAndEmptyOutputAreNamed) {
   CliRun bogus = run({"bogus", "x.csv", "-o", "x.json"});
   EXPECT_EQ(bogus.code, 2);
-  EXPECT_NE(bogus.err.find("unknown analysis 'bogus'; allowed: hard-sphere, soft, olsson-teitel, flow-curve"),
+  EXPECT_NE(bogus.err.find(
+                "unknown analysis 'bogus'; allowed: hard-sphere, soft, olsson-teitel, flow-curve"),
             std::string::npos)
       << bogus.err;
   CliRun empty = run({"hard-sphere", "x.csv", "-o", ""});
