@@ -183,8 +183,20 @@ std::string flow_curve_markdown(const FlowCurveResult& r, const std::vector<std:
     md << "\n";
   }
   md << "## eta(phi) divergence\n\n";
-  for (const auto& d : r.divergences)
+  // Groups with too few points for the fit are counted, not listed (the JSON has each).
+  std::size_t skipped = 0;
+  for (const auto& d : r.divergences) {
+    if (d.fit.status == FlowFit::Status::kSkipped) {
+      ++skipped;
+      continue;
+    }
     fit_md(md, d.group, d.fit);
+  }
+  if (skipped > 0) {
+    md << "- " << skipped << " of " << r.divergences.size()
+       << " groups skipped: fewer than 4 points (values of phi) left for eta_0, beta and phi_c"
+       << " (`divergences` in the JSON lists each, with the rows left out)\n";
+  }
   if (!r.warnings.empty() || !r.failures.empty()) {
     md << "\n## Notes\n\n";
     for (const auto& w : r.warnings)

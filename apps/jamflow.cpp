@@ -184,7 +184,7 @@ void print_usage() {
       "  jamflow run [SCENE.toml] [-o OUT.h5] [--set section.key=value]... [--threads N]\n"
       "              [--force] [--resume OUT.h5.part | --extend OUT.h5 --set run.t_av=T]\n"
       "  jamflow scene                       print the embedded default scene\n"
-      "  jamflow analyze {hard-sphere|soft|olsson-teitel} DATA... -o OUT.json\n"
+      "  jamflow analyze {hard-sphere|soft|olsson-teitel|flow-curve} DATA... -o OUT.json\n"
       "  jamflow sweep SWEEP.toml [--out DIR] [-j K] [--dry-run] [--collect TABLE.csv]\n"
       "              [--slurm [--array-size M] [--time HH:MM:SS]] [--task K --array-size M]\n"
       "  mpirun -n R jamflow sweep SWEEP.toml   the points farmed over R MPI ranks\n"

@@ -270,6 +270,36 @@ TEST(FlowCurveCli, WritesFitsAndAdmitsFailedRowsOnlyWhenAsked) {
       << md;
 }
 
+// The reader's verdict admission (the one rule every analysis uses): rows left out are listed;
+// admitted, they are marked, and a state point merged with a failed repeat is marked too.
+TEST(FlowCurve, ReaderAdmitsFailedRowsMarkedAndListsThoseLeftOut) {
+  ScratchDir dir;
+  std::mt19937_64 rng(17);
+  auto pts = curve(
+      0.6, {1e-4, 1e-3, 1e-2}, 0.02, [](double g) { return g; }, &rng);
+  const auto a = dir.write("a.csv", cv_table(pts, {"1", "0", "1"}));
+  for (auto& p : pts)
+    p.sigma *= 1.01;  // an independent repeat of the same state points, all steady
+  const auto b = dir.write("b.csv", cv_table(pts, {"1", "1", "1"}));
+  std::vector<std::string> left;
+  VerdictAdmission v;
+  v.left_out = &left;
+  ::testing::internal::CaptureStderr();
+  auto kept = read_shear({a, b}, v);
+  ASSERT_EQ(left.size(), 1u);
+  EXPECT_EQ(left[0], a + ":3: not steady");
+  for (const auto& p : kept)
+    EXPECT_TRUE(p.failed_verdicts.empty()) << p.source;
+  v.include_failed = true;
+  left.clear();
+  auto all = read_shear({a, b}, v);
+  (void)::testing::internal::GetCapturedStderr();
+  EXPECT_TRUE(left.empty());
+  ASSERT_EQ(all.size(), 3u);  // merged by state point
+  for (const auto& p : all)
+    EXPECT_EQ(p.failed_verdicts, p.shear_rate == 1e-3 ? "not steady" : "") << p.source;
+}
+
 TEST(FlowCurveCli, TooFewPointsExitsTwoWithOneLine) {
   ScratchDir dir;
   auto pts = curve(

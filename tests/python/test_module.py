@@ -348,6 +348,23 @@ def test_analyze_returns_plain_objects_and_raises_one_line_errors(tmp_path):
     assert "\n" not in str(err.value) and "missing.csv" in str(err.value)
 
 
+def test_analyze_flow_curve_fits_one_curve_and_marks_failed_rows(tmp_path):
+    # One constant-volume curve sigma = sigma_y + K gdot^n, exact, the second row not steady.
+    rows = ["N,phi,gdot,sigma_xy,sigma_xy_err,replicas,steady,stable,decorrelated"]
+    for i, g in enumerate(np.logspace(-6, -2, 6)):
+        s = 0.01 + 0.5 * g**0.5
+        rows.append(f"1000,0.66,{g!r},{s!r},{0.01 * s!r},1,{0 if i == 1 else 1},1,1")
+    data = tmp_path / "curve.csv"
+    data.write_text("\n".join(rows) + "\n")
+    result = jamflow.analyze_flow_curve(data)
+    curve = result["curves"][0]
+    assert len(curve["points"]) == 5 and len(result["left_out_for_verdicts"]) == 1
+    hb = curve["herschel_bulkley"]["parameters"]
+    assert abs(hb["sigma_y"]["value"] - 0.01) < 1e-6 and hb["sigma_y"]["error"] > 0
+    marked = jamflow.analyze("flow-curve", data, include_failed=True)["curves"][0]["points"]
+    assert [p["verdicts_failed"] for p in marked] == [False, True, False, False, False, False]
+
+
 def _doc_text(obj):
     """The docstring without pybind11's signature line(s)."""
     doc = getattr(obj, "__doc__", None) or ""
