@@ -179,6 +179,7 @@ FlowCurveResult analyze_flow_curves(const std::vector<ShearPoint>& points,
   if (points.empty())
     throw InsufficientDataError("no data points");
   FlowCurveResult r;
+  r.point_errors = point_errors_of(points);
   std::map<std::string, std::vector<ShearPoint>> sets;
   for (const auto& p : points)
     sets[p.set].push_back(p);

@@ -70,6 +70,7 @@ struct Divergence {
 };
 
 struct FlowCurveResult {
+  PointErrors point_errors;  // what the input points' errors are made of
   std::vector<FlowCurve> curves;
   std::vector<Divergence> divergences;
   std::vector<std::string> warnings;

@@ -117,6 +117,7 @@ Json flow_curve_json(const FlowCurveResult& r, const std::vector<std::string>& i
   j["errors"] =
       "statistical errors from the fit covariance, multiplied by sqrt(chi2/dof) where chi2/dof > 1 "
       "(errors_scaled_by_sqrt_chi2_dof)";
+  j["point_errors"] = point_errors_json(r.point_errors);
   j["left_out_for_verdicts"] = strings(left_out);
   Json curves = Json::array();
   for (const auto& c : r.curves) {
@@ -167,7 +168,8 @@ std::string flow_curve_markdown(const FlowCurveResult& r, const std::vector<std:
   for (const auto& i : inputs)
     md << " `" << i << "`";
   md << "\n\nErrors: statistical, from the fit covariance, multiplied by sqrt(chi2/dof) where "
-        "chi2/dof > 1 (said on each such fit).\n";
+        "chi2/dof > 1 (said on each such fit). "
+     << describe(r.point_errors) << "\n";
   if (include_failed) {
     md << "\nRuns whose verdicts failed are **included** (`--include-failed`) and marked below.\n";
   } else if (!left_out.empty()) {
