@@ -50,7 +50,13 @@ autodoc_default_options = {"members": True, "undoc-members": False, "show-inheri
 
 html_theme = "furo"
 html_title = f"jamflow {release}".strip()
-html_static_path = []
 html_show_sourcelink = False
-# Nothing from the network: the pages must render offline (the browser test runs without it).
-html_theme_options = {}
+
+
+def _hide_pybind11_base(app, name, obj, options, bases):
+    # Every class of the module derives from pybind11's internal base; "Bases:" says nothing then.
+    bases[:] = [b for b in bases if getattr(b, "__name__", "") != "pybind11_object"]
+
+
+def setup(app):
+    app.connect("autodoc-process-bases", _hide_pybind11_base)
