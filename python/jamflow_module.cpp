@@ -818,9 +818,9 @@ py::object analyze(const std::string& kind, py::object data, py::object out, boo
 PYBIND11_MODULE(jamflow, m) {
   m.doc() =
       "jamflow: overdamped shear simulations of soft spheres near jamming. Scenes, runs, "
-      "simulations under a Python protocol loop, sweeps and analyses; see the README's "
-      "\"Python\" section. Data: __version__ (the version), default_scene (the embedded default "
-      "scene, TOML text).";
+      "simulations under a Python protocol loop, sweeps and analyses; see the documentation's "
+      "Python guide (docs/guide/python.md) and tutorial (docs/tutorial.md). Data: __version__ "
+      "(the version), default_scene (the embedded default scene, TOML text).";
   m.attr("__version__") = JAMFLOW_VERSION;
   register_data_root();
   // What progress=True shows: a tqdm bar per replica when tqdm is installed (Debian's

@@ -16,7 +16,7 @@ packages=(build-essential cmake pkg-config libeigen3-dev libsundials-dev libgsl-
           libgtest-dev libtomlplusplus-dev libcli11-dev libhwy-dev libopenmpi-dev openmpi-bin
           python3-matplotlib python3-h5py python3-numpy python3-dev pybind11-dev python3-pytest
           python3-ase python3-mdanalysis python3-tqdm python3-venv python3-pip python3-setuptools
-          python3-wheel)
+          python3-wheel python3-sphinx python3-myst-parser furo chromium)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
@@ -37,7 +37,7 @@ cmake --build "$build_dir" -j "$jobs"
 case "$mode" in
   run) mkdir -p out && exec "$build_dir/jamflow" run -o out/default.h5 "$@" ;;
   # ctest runs $jobs test processes at once, and some tests use 2-3 threads each: with libgomp's
-  # spinning waits they would starve each other (README "Threads").
+  # spinning waits they would starve each other (docs/guide/running.md, "Threads").
   test) cd "$build_dir" && OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}" \
           exec ctest --output-on-failure -j "$jobs" ;;
 esac
