@@ -15,6 +15,7 @@
 #include "lib/config.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
+#include "lib/state.hpp"
 
 namespace jamflow {
 
@@ -379,10 +380,18 @@ void check_checkpoint_matches(const H5Reader& r, const std::vector<ReplicaResult
     const toml::table* ens = scene.table("ensemble");
     const toml::node* kind = ens ? ens->get("kind") : nullptr;
     if (kind && kind->is_string() && kind->as_string()->get() == "constant_volume") {
-      // Every sample, and the state where it stopped (a checkpoint taken right after the
-      // first sample holds one sample, but a state that has moved on).
+      // Every sample, and the state where it stopped against the cell its scene starts from
+      // (a checkpoint stopped early holds one sample or none, but a state that has moved on).
       const auto& s = rep.series.samples;
-      const bool end_moved = !s.empty() && rep.end.state.box.volume() != s.front().volume;
+      bool end_moved = !s.empty() && rep.end.state.box.volume() != s.front().volume;
+      const toml::node* phi = sys ? sys->get("phi") : nullptr;
+      if (!from_init && phi && phi->is_number() && n && n->is_integer()) {
+        const double v0 =
+            Box::cubic(volume_for_phi(static_cast<std::size_t>(n->as_integer()->get()),
+                                      phi->value<double>().value_or(0.0)))
+                .volume();
+        end_moved = end_moved || std::abs(rep.end.state.box.volume() - v0) > 1e-12 * v0;
+      }
       for (const auto& sample : s) {
         if (end_moved || sample.volume != s.front().volume)
           throw ConfigError(option + " '" + file +
