@@ -171,44 +171,95 @@ herr_t collect_attr(hid_t, const char* name, const H5A_info_t*, void* data) noex
   }
 }
 
-// Lets go of a file that is to be thrown away, even one HDF5 could not write to (a full disk).
-// H5Fclose flushes what HDF5 still holds; when that fails the identifier stays registered (a
-// second H5Fclose on it crashes, and so would libhdf5's exit cleanup, hence hdf5_setup()). So
-// the temporary is first cut to nothing, which frees its blocks for the few bytes of metadata
-// the close still writes (on a full disk that lets the close succeed; beyond a file-size limit
-// it still fails, and the file is left to the process's end).
-void close_discarded(hid_t file, const std::string& part) {
-  if (file < 0)
-    return;
-  (void)::truncate(part.c_str(), 0);
-  if (H5Fclose(file) < 0)
-    H5Eclear2(H5E_DEFAULT);
+// Writes all of data to fd; errno says why not.
+bool write_all(int fd, const unsigned char* data, std::size_t size) {
+  while (size > 0) {
+    const ssize_t n = ::write(fd, data, size);
+    if (n < 0) {
+      if (errno == EINTR)
+        continue;
+      return false;
+    }
+    data += n;
+    size -= static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
+// The file as built in memory: the image libhdf5 would have written.
+std::vector<unsigned char> file_image(hid_t file, const std::string& part) {
+  if (H5Fflush(file, H5F_SCOPE_GLOBAL) < 0)
+    throw IoError(part + ": cannot close HDF5 file: " + hdf5_reason());
+  const ssize_t size = H5Fget_file_image(file, nullptr, 0);
+  if (size < 0)
+    throw IoError(part + ": cannot close HDF5 file: " + hdf5_reason());
+  std::vector<unsigned char> image(static_cast<std::size_t>(size));
+  if (H5Fget_file_image(file, image.data(), image.size()) != size)
+    throw IoError(part + ": cannot close HDF5 file: " + hdf5_reason());
+  return image;
 }
 
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
 
+// The file is built in memory (HDF5's core driver, no backing store) and written to disk by
+// commit() in one piece. A disk that fails (full, beyond a file-size limit) then fails a plain
+// write() that says why, and never an H5Fclose: libhdf5 cannot close a file whose last writes
+// failed, and keeps its caches allocated for the rest of the process (about 300 kB for each
+// checkpoint a full disk refused).
 H5Writer::H5Writer(std::string path, std::string temp_suffix)
     : path_(std::move(path)), suffix_(std::move(temp_suffix)) {
   if (suffix_.empty())
     throw std::invalid_argument("H5Writer: the temporary suffix must not be empty");
   silence_hdf5();
   const std::string part = part_path();
-  file_ = H5Fcreate(part.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
-  if (file_ < 0)
-    throw IoError(part + ": cannot create HDF5 file: " + hdf5_reason());
+  // Created now, so that a folder that cannot hold it is an error before anything is computed.
+  fd_ = ::open(part.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd_ < 0)
+    throw IoError(part + ": cannot create HDF5 file: " + std::strerror(errno));
+  const Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
+  if (fapl.ok() && H5Pset_fapl_core(fapl.get(), std::size_t{1} << 20, false) >= 0)
+    file_ = H5Fcreate(part.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get());
+  if (file_ < 0) {
+    const std::string reason = hdf5_reason();
+    ::close(std::exchange(fd_, -1));
+    std::remove(part.c_str());
+    throw IoError(part + ": cannot create HDF5 file: " + reason);
+  }
 }
 
 H5Writer::~H5Writer() {
-  if (file_ >= 0) {
-    if (done_)
-      H5Fclose(file_);
-    else
-      close_discarded(file_, part_path());
-  }
+  if (file_ >= 0 && H5Fclose(file_) < 0)  // in memory: nothing to fail but an allocation
+    H5Eclear2(H5E_DEFAULT);
+  if (fd_ >= 0)
+    ::close(fd_);
   if (!done_)
     std::remove(part_path().c_str());
+}
+
+// Writes the image in memory to the temporary file, on disk (fsync) before it returns. An
+// error leaves the file to the caller: removed by the destructor unless done_.
+void H5Writer::write_out() {
+  const std::string part = part_path();
+  const hid_t file = std::exchange(file_, -1);
+  std::vector<unsigned char> image;
+  try {
+    image = file_image(file, part);
+  } catch (...) {
+    if (H5Fclose(file) < 0)
+      H5Eclear2(H5E_DEFAULT);
+    throw;
+  }
+  if (H5Fclose(file) < 0)
+    H5Eclear2(H5E_DEFAULT);
+  const int fd = std::exchange(fd_, -1);
+  const bool written = write_all(fd, image.data(), image.size()) && ::fsync(fd) == 0;
+  const int err = errno;
+  if (::close(fd) != 0 && written)
+    throw IoError(part + ": cannot write HDF5 file: " + std::strerror(errno));
+  if (!written)
+    throw IoError(part + ": cannot write HDF5 file: " + std::strerror(err));
 }
 
 namespace {
@@ -367,24 +418,10 @@ void H5Writer::commit() {
   silence_hdf5();
   if (done_ || file_ < 0)
     throw IoError(part_path() + ": commit: file already closed");
-  const std::string part = part_path();
-  const hid_t file = std::exchange(file_, -1);
-  // An unflushed file is not trustworthy: it is closed as discarded and, done_ being false,
-  // removed by the destructor.
-  if (H5Fflush(file, H5F_SCOPE_GLOBAL) < 0) {
-    const std::string reason = hdf5_reason();
-    close_discarded(file, part);
-    throw IoError(part + ": cannot close HDF5 file: " + reason);
-  }
-  if (H5Fclose(file) < 0)  // not to be closed again (close_discarded)
-    throw IoError(part + ": cannot close HDF5 file: " + hdf5_reason());
-  // On disk before the rename, so that a crash cannot leave a renamed but empty file.
-  if (const int fd = ::open(part.c_str(), O_RDONLY); fd >= 0) {
-    ::fsync(fd);
-    ::close(fd);
-  }
+  write_out();  // on disk before the rename, so that a crash cannot leave a renamed empty file
   // The data is complete even if the rename fails; keep it rather than delete it.
   done_ = true;
+  const std::string part = part_path();
   if (std::rename(part.c_str(), path_.c_str()) != 0) {
     throw IoError("cannot rename " + part + " to " + path_ + ": " + std::strerror(errno) +
                   " (the data is kept in " + part + ")");
@@ -395,7 +432,8 @@ void H5Writer::keep_partial(const std::string& status) {
   silence_hdf5();
   if (done_ || file_ < 0)
     throw IoError(part_path() + ": keep_partial: file already closed");
-  // Keep the file whatever happens below: it is the only record of the failed run.
+  // Keep the file whatever happens below: it is the only record of the failed run (a write
+  // that fails half-way leaves a file HDF5 refuses to open, not one that looks complete).
   done_ = true;
   std::string error;
   try {
@@ -405,9 +443,12 @@ void H5Writer::keep_partial(const std::string& status) {
   } catch (const IoError& e) {
     error = e.what();
   }
-  const hid_t file = std::exchange(file_, -1);
-  if (H5Fclose(file) < 0 && error.empty())  // not to be closed again (close_discarded)
-    error = part_path() + ": cannot close HDF5 file: " + hdf5_reason();
+  try {
+    write_out();
+  } catch (const IoError& e) {
+    if (error.empty())
+      error = e.what();
+  }
   if (!error.empty())
     throw IoError(error);
 }

@@ -45,14 +45,18 @@ class H5Writer {
     attr(object, name, std::string(value));
   }
 
-  // Close, flush to disk (fsync) and atomically rename the temporary file to <path>.
+  // Write the file (it is built in memory) to the temporary file, flush it to disk (fsync) and
+  // atomically rename it to <path>.
   void commit();
   // Close, keep <path>.part and record why it is incomplete in a root attribute "status".
   void keep_partial(const std::string& status);
 
  private:
+  void write_out();
+
   std::string path_, suffix_;
   hid_t file_ = -1;
+  int fd_ = -1;  // the temporary file, open from the constructor on
   bool done_ = false;
 };
 
