@@ -176,7 +176,14 @@ int analyze_main(const std::vector<std::string>& args) {
       "olsson-teitel",
       "Houdayer–Hartmann collapse quality of the two-branch scaling; plots Fig. 9");
   common(ot);
-  ot->add_option("--at", at_text, "phi_J:alpha:beta to evaluate (default 0.6474:1.33:2.55)");
+  {
+    const CollapseParams paper;
+    char at_default[96];
+    std::snprintf(at_default, sizeof at_default,
+                  "phi_J:alpha:beta to evaluate (default the paper's, %g:%g:%g)", paper.phi_j,
+                  paper.alpha, paper.beta);
+    ot->add_option("--at", at_text, at_default);
+  }
   ot->add_option("--start", start_text, "phi_J:alpha:beta optimiser start (default: --at)");
   ot->add_option("--bootstrap", bootstrap, "bootstrap resamples for errors (default 100, >= 10)");
   ot->add_option("--seed", seed, "bootstrap random seed");

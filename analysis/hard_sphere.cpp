@@ -13,6 +13,7 @@
 #include "analysis/errors.hpp"
 #include "analysis/json.hpp"
 #include "analysis/report.hpp"
+#include "analysis/seed.hpp"
 
 namespace jamflow::analysis {
 
@@ -267,7 +268,7 @@ SizeFit fit_size(std::int64_t n, const std::vector<GranularPoint>& points,
   // coefficient mu_J >= 0 (a negative one is a fit that has traded mu_J against C_mu, b_mu).
   const double nn = static_cast<double>(n);
   auto ref_b = [&](const char* b) {
-    return options.form_systematic ? std::optional<double>(paper_table2_at(b, nn)) : std::nullopt;
+    return options.form_systematic ? std::optional<double>(seed::table2(b).at(nn)) : std::nullopt;
   };
   s.phi_errors = power_law_error_model(
       phi_data, phi_form, s.phi, fo, ref_b("b_phi"),
@@ -276,11 +277,6 @@ SizeFit fit_size(std::int64_t n, const std::vector<GranularPoint>& points,
       mu_data, mu_form, s.mu, fo_mu, ref_b("b_mu"),
       {{"mu_J", 0.0, std::nullopt}, {"C_mu", 0.0, std::nullopt}, {"b_mu", 0.0, std::nullopt}}, "J");
   return s;
-}
-
-double paper_table2_at(const std::string& parameter, double n) {
-  const PaperTable2Entry& t = paper_table2(parameter);
-  return n > 0.0 ? t.inf + t.a * std::pow(n, -t.alpha) : t.inf;
 }
 
 namespace {

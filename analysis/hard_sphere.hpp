@@ -98,9 +98,6 @@ struct HardSphereOptions {
   double resolved_amplitude_sigma = 2.0;
 };
 
-// The seed's Table 2 law O(N) = O_inf + A N^-alpha of a parameter at size N (SPEC §5).
-double paper_table2_at(const std::string& parameter, double n);
-
 struct SizeFit {
   std::int64_t n = 0;
   std::vector<EnvelopePoint> points;

@@ -18,14 +18,15 @@
 #include "analysis/collapse.hpp"
 #include "analysis/data.hpp"
 #include "analysis/fit.hpp"
+#include "analysis/seed.hpp"
 #include "analysis/soft.hpp"
 
 namespace jamflow::analysis {
 
 struct CollapseParams {
-  double phi_j = 0.6474;  // paper: best phi_J
-  double alpha = 1.33;    // paper: 1/x
-  double beta = 2.55;     // paper: 1/b_phi
+  double phi_j = seed::kTeitelPhiJ;   // the paper's (Fig. 9)
+  double alpha = seed::kTeitelAlpha;  // 1/x
+  double beta = seed::kTeitelBeta;    // 1/b_phi
 };
 
 class HoudayerHartmann {

@@ -8,6 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "analysis/seed.hpp"
 #include "lib/statistics.hpp"
 
 namespace jamflow::analysis {
@@ -180,18 +181,6 @@ std::string format_measured(const Measured& m) {
   if (e == 0)
     return fmt(v) + " (exact)";
   return fmt(v, "%.4e") + " ± " + fmt(e, "%.2e");
-}
-
-const PaperTable2Entry& paper_table2(const std::string& parameter) {
-  static const std::map<std::string, PaperTable2Entry> table = {
-      {"phi_J", {0.6474, -0.323, 0.852}}, {"b_phi", {0.391, 0.756, 0.505}},
-      {"C_phi", {0.0683, -1.15, 1.17}},   {"mu_J", {0.108, 0.279, 0.626}},
-      {"b_mu", {0.346, 2.93, 0.946}},     {"C_mu", {0.347, -1.44, 1.02}},
-  };
-  auto it = table.find(parameter);
-  if (it == table.end())
-    throw std::out_of_range("no Table 2 entry for " + parameter);
-  return it->second;
 }
 
 // --- hard sphere -------------------------------------------------------------
@@ -441,7 +430,7 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
     md << "| O | O_inf | paper | pull | A_O | paper | alpha_O | paper | chi2/dof |\n";
     md << "|---|---|---|---|---|---|---|---|---|\n";
     for (const auto& e : r.extrapolations) {
-      const auto& t = paper_table2(e.parameter);
+      const auto& t = seed::table2(e.parameter);
       if (e.status == Extrapolation::Status::kFailed ||
           e.status == Extrapolation::Status::kNotResolved) {
         md << "| " << e.parameter << " | "
@@ -476,8 +465,10 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
   }
   md << "## Correlation-length exponent nu = b / (alpha_O d), d = " << o.dimension << "\n\n";
   md << "| from | nu | paper |\n|---|---|---|\n";
-  md << "| phi | " << (r.nu_phi ? format_measured(*r.nu_phi) : "n/a") << " | 0.153 |\n";
-  md << "| mu | " << (r.nu_mu ? format_measured(*r.nu_mu) : "n/a") << " | 0.184 |\n\n";
+  md << "| phi | " << (r.nu_phi ? format_measured(*r.nu_phi) : "n/a") << " | " << fmt(seed::kNuPhi)
+     << " |\n";
+  md << "| mu | " << (r.nu_mu ? format_measured(*r.nu_mu) : "n/a") << " | " << fmt(seed::kNuMu)
+     << " |\n\n";
   md << "## Finite-size collapse (Fig. 6)\n\n";
   md << "y = (O(J, N) - O_inf) / (A_O N^-alpha_O) against x = J N^(alpha_O/b), from the "
         "N -> infinity fits above. Quality: Houdayer-Hartmann S over the sizes as curves "
@@ -498,13 +489,16 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
     md << "eta/eta_0 = a1 (phi_J - phi)^-e1 + a2 (phi_J - phi)^-e2\n\n";
     md << "| quantity | value | paper |\n|---|---|---|\n";
     md << "| a1 = mu_J C_phi^(1/b_phi) | " << format_measured(v.amplitude_1) << " | |\n";
-    md << "| e1 = 1/b_phi (asymptotic) | " << format_measured(v.exponent_1) << " | 2.55 |\n";
+    md << "| e1 = 1/b_phi (asymptotic) | " << format_measured(v.exponent_1) << " | "
+       << fmt(seed::kViscosityExponentHigh) << " |\n";
     md << "| a2 = C_mu C_phi^((1-b_mu)/b_phi) | " << format_measured(v.amplitude_2) << " | |\n";
-    md << "| e2 = (1-b_mu)/b_phi | " << format_measured(v.exponent_2) << " | 1.67 |\n";
+    md << "| e2 = (1-b_mu)/b_phi | " << format_measured(v.exponent_2) << " | "
+       << fmt(seed::kViscosityExponentLow) << " |\n";
     md << "| crossover phi_J - phi | " << format_measured(v.crossover_delta_phi)
        << " | about 0.02 |\n";
     md << "| effective exponent over phi in [" << fmt(v.window_min) << ", " << fmt(v.window_max)
-       << "] | " << format_measured(v.effective_exponent) << " | in [1.67, 2.55] |\n";
+       << "] | " << format_measured(v.effective_exponent) << " | in ["
+       << fmt(seed::kViscosityExponentLow) << ", " << fmt(seed::kViscosityExponentHigh) << "] |\n";
     md << "| local exponent at phi = " << fmt(v.window_min) << " | "
        << format_measured(v.local_exponent_at_min) << " | |\n";
     md << "| local exponent at phi = " << fmt(v.window_max) << " | "
@@ -597,7 +591,7 @@ Json hard_sphere_plot_data(const HardSphereResult& r) {
   j["extrapolated"] = ex;
   Json table = Json::object();
   for (const auto& name : hard_sphere_parameters()) {
-    const auto& t = paper_table2(name);
+    const auto& t = seed::table2(name);
     table[name] = Json(std::vector<double>{t.inf, t.a, t.alpha});
   }
   j["table2"] = table;
@@ -621,16 +615,16 @@ namespace {
 double paper_joint(std::size_t k, std::int64_t n) {
   switch (k) {
     case 2:
-      return 0.75;
+      return seed::kX;
     case 7:
-      return 0.56;
+      return seed::kY;
     case 1:
     case 6:
       return std::nan("");
     default: {
       static const char* const hs[10] = {"phi_J", "", "", "C_phi", "b_phi",
                                          "mu_J",  "", "", "C_mu",  "b_mu"};
-      return paper_table2_at(hs[k], static_cast<double>(n));
+      return seed::table2(hs[k]).at(static_cast<double>(n));
     }
   }
 }
@@ -736,7 +730,7 @@ Json joint_soft_json(const JointSoftFit& f, const YieldComparison* yield) {
     a["J_window"] = number_or_null(d * f.j_window[2]);
     a["fit_form"] = number_or_null(d * f.form[2]);
     a["systematic"] = d * quadrature_systematic(f, 2);
-    a["paper"] = 1.33;
+    a["paper"] = seed::kYieldExponent;
     a["paper_source"] = "Sec. V A";
     j["alpha"] = a;
   }
@@ -818,8 +812,9 @@ std::string joint_soft_markdown(const JointSoftFit& f, const YieldComparison* yi
     const double total = std::hypot(f.alpha.error, d * quadrature_systematic(f, 2));
     md << "| alpha = 1/x (yield stress) | " << format_measured(f.alpha) << " | "
        << sys_md(d * f.pressure_window[2]) << " | " << sys_md(d * f.j_window[2]) << " | "
-       << sys_md(d * f.form[2]) << " | 1.33 | " << pull_md(f.alpha.value, f.alpha.error, 1.33)
-       << " | " << pull_md(f.alpha.value, total, 1.33) << " |\n\n";
+       << sys_md(d * f.form[2]) << " | " << fmt(seed::kYieldExponent) << " | "
+       << pull_md(f.alpha.value, f.alpha.error, seed::kYieldExponent) << " | "
+       << pull_md(f.alpha.value, total, seed::kYieldExponent) << " |\n\n";
   }
   md << "Paper values: x and y from Sec. V A; phi_J0, C_phi, b_phi, mu_J0, C_mu, b_mu from Table "
         "2's size law at N = "
@@ -1013,18 +1008,20 @@ std::string soft_markdown(const SoftResult& r, const SoftOptions& o,
     md << "\n| parameter | value | paper |\n|---|---|---|\n";
     md << "| phi_J(0) | " << format_measured(s.phi_fit.at(0)) << " | |\n";
     md << "| c_phi | " << format_measured(s.phi_fit.at(1)) << " | |\n";
-    md << "| x | " << format_measured(s.phi_fit.at(2)) << " | 0.75 |\n";
+    md << "| x | " << format_measured(s.phi_fit.at(2)) << " | " << fmt(seed::kX) << " |\n";
     md << "| mu_J(0) | " << format_measured(s.mu_fit.at(0)) << " | |\n";
     md << "| c_mu | " << format_measured(s.mu_fit.at(1)) << " | |\n";
-    md << "| y | " << format_measured(s.mu_fit.at(2)) << " | 0.56 |\n";
+    md << "| y | " << format_measured(s.mu_fit.at(2)) << " | " << fmt(seed::kY) << " |\n";
     md << "| chi2/dof phi_J(P), mu_J(P) | " << fmt(s.phi_fit.reduced_chi2(), "%.2f") << ", "
        << fmt(s.mu_fit.reduced_chi2(), "%.2f") << " | |\n\n";
     md << "Yield stress sigma_Y = a1 (phi - phi_J0)^e1 - a2 (phi - phi_J0)^e2:\n\n";
     md << "| quantity | value | paper |\n|---|---|---|\n";
     md << "| a1 = mu_J(0) c_phi^(-1/x) | " << format_measured(s.yield.amplitude_1) << " | |\n";
-    md << "| e1 = 1/x | " << format_measured(s.yield.exponent_1) << " | 1.33 |\n";
+    md << "| e1 = 1/x | " << format_measured(s.yield.exponent_1) << " | "
+       << fmt(seed::kYieldExponent) << " |\n";
     md << "| a2 = c_mu c_phi^(-(1+y)/x) | " << format_measured(s.yield.amplitude_2) << " | |\n";
-    md << "| e2 = (1+y)/x | " << format_measured(s.yield.exponent_2) << " | 2.08 |\n\n";
+    md << "| e2 = (1+y)/x | " << format_measured(s.yield.exponent_2) << " | "
+       << fmt((1.0 + seed::kY) / seed::kX) << " |\n\n";
   }
   notes_md(md, r.warnings, {});
   return md.str();
@@ -1203,7 +1200,8 @@ std::string olsson_teitel_markdown(const OlssonTeitelResult& r, const OlssonTeit
      << fmt(r.at.beta) << " | " << quality_md(r.at_quality) << " |\n";
   md << "| optimum | " << format_measured(r.best.phi_j) << " | " << format_measured(r.best.alpha)
      << " | " << format_measured(r.best.beta) << " | " << quality_md(r.best.quality) << " |\n";
-  md << "| paper (Fig. 9) | 0.6474 | 1.33 | 2.55 | no acceptable collapse |\n\n";
+  md << "| paper (Fig. 9) | " << fmt(seed::kTeitelPhiJ) << " | " << fmt(seed::kTeitelAlpha) << " | "
+     << fmt(seed::kTeitelBeta) << " | no acceptable collapse |\n\n";
   md << "Bootstrap spread of S at the resamples' optima: " << fmt(r.best.s_spread, "%.3g")
      << ".\n\n";
   if (!r.measures.empty()) {

@@ -24,12 +24,6 @@ Json error_model_json(const ErrorModel& m);
 // "0.6474 ± 0.0012" with the error to two significant digits.
 std::string format_measured(const Measured& m);
 
-// Table 2 of the paper (SPEC §5): row "inf", "A", "alpha" for each parameter.
-struct PaperTable2Entry {
-  double inf, a, alpha;
-};
-const PaperTable2Entry& paper_table2(const std::string& parameter);
-
 Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
                       const std::vector<std::string>& inputs);
 std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOptions& o,

@@ -16,6 +16,7 @@
 
 #include "analysis/errors.hpp"
 #include "analysis/json.hpp"
+#include "analysis/seed.hpp"
 
 namespace jamflow::analysis {
 
@@ -647,8 +648,8 @@ void soft_form_systematics(JointSoftFit& f, const std::vector<GranularPoint>& po
   f.form_refit.fill(nan);
   f.form_notes.clear();
   const double n = static_cast<double>(f.n);
-  const double c_phi = paper_table2_at("C_phi", n), b_phi = paper_table2_at("b_phi", n);
-  const double c_mu = paper_table2_at("C_mu", n), b_mu = paper_table2_at("b_mu", n);
+  const double c_phi = seed::table2("C_phi").at(n), b_phi = seed::table2("b_phi").at(n);
+  const double c_mu = seed::table2("C_mu").at(n), b_mu = seed::table2("b_mu").at(n);
   const auto best = f.law.values();
   f.form_refit[3] = c_phi;
   f.form_refit[4] = b_phi;

@@ -18,6 +18,7 @@
 #include "analysis/data.hpp"
 #include "analysis/fit.hpp"
 #include "analysis/hard_sphere.hpp"
+#include "analysis/seed.hpp"
 
 namespace jamflow::analysis {
 
@@ -33,8 +34,12 @@ struct HardSphereShape {
 // The soft granular rheology as one law of (P, J), ten parameters:
 //   phi(P,J) = phi_J0 + c_phi P^x - C_phi J^b_phi,  mu(P,J) = mu_J0 - c_mu P^y + C_mu J^b_mu.
 struct SoftLaw {
-  double phi_j0 = 0.6474, c_phi = 0.3, x = 0.75, big_c_phi = 0.0683, b_phi = 0.391;
-  double mu_j0 = 0.108, c_mu = 0.3, y = 0.56, big_c_mu = 0.347, b_mu = 0.346;
+  // Defaults, where a fit starts: the paper's values (c_phi and c_mu, which it does not give,
+  // 0.3).
+  double phi_j0 = seed::table2("phi_J").inf, c_phi = 0.3, x = seed::kX;
+  double big_c_phi = seed::table2("C_phi").inf, b_phi = seed::table2("b_phi").inf;
+  double mu_j0 = seed::table2("mu_J").inf, c_mu = 0.3, y = seed::kY;
+  double big_c_mu = seed::table2("C_mu").inf, b_mu = seed::table2("b_mu").inf;
 
   static const std::array<const char*, 10>& names();  // phi_J0, c_phi, x, C_phi, b_phi, mu_J0, ...
   std::array<double, 10> values() const;

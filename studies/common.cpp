@@ -9,6 +9,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "analysis/seed.hpp"
 #include "lib/data_files.hpp"
 #include "lib/error.hpp"
 #include "lib/text_file.hpp"
@@ -39,11 +40,7 @@ RunSpec spec_from_toml(const std::string& toml, const IntegratorSettings& integr
 }
 
 double hard_sphere_phi(double j, std::int64_t n) {
-  const double nn = double(n);
-  const double phi_j = 0.6474 - 0.323 * std::pow(nn, -0.852);
-  const double b = 0.391 + 0.756 * std::pow(nn, -0.505);
-  const double c = 0.0683 - 1.15 * std::pow(nn, -1.17);
-  return phi_j - c * std::pow(j, b);
+  return seed::hard_sphere_phi(j, double(n));
 }
 
 double phi_start(double j, std::int64_t n, double below, double phi_max) {

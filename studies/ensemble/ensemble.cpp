@@ -13,6 +13,7 @@
 #include <optional>
 #include <sstream>
 
+#include "analysis/seed.hpp"
 #include "driver/run.hpp"
 #include "ensembles/constant_volume.hpp"
 #include "integrators/euler.hpp"
@@ -73,7 +74,18 @@ Preset preset_of(const std::string& name) {
     return {"standard", 1000, 1e-5, 1e-4, 1e-6, 5e5, 1.6e6, 1e5, 810.0, 4, 200.0, kIntegrator};
   // paper: the seed's state point, J = 4e-4 (phi ~ 0.643); a cluster job.
   if (name == "paper")
-    return {"paper", 1000, 1e-5, 1e-4, 3.98e-9, 1.25e8, 1.25e8, 1.25e8, 6e4, 3, 200.0, kIntegrator};
+    return {"paper",
+            1000,
+            seed::kEnsemblePressure,
+            1e-4,
+            seed::kEnsembleRate,
+            1.25e8,
+            1.25e8,
+            1.25e8,
+            6e4,
+            3,
+            200.0,
+            kIntegrator};
   throw ConfigError("--preset " + name + "; allowed quick, standard, paper");
 }
 
@@ -265,7 +277,7 @@ std::string table_markdown(const EnsembleRuns& np, const EnsembleRuns& nv) {
                     num(a, 3), num(b, 3), num(b / a, 3), ""});
   }
   rows.push_back({"packing fraction phi", pm3(np, "phi", 6), num(val(nv, "phi"), 6) + " (imposed)",
-                  "", "0.643"});
+                  "", num(seed::kEnsemblePhi, 4)});
   rows.push_back({"block std of phi (mean over replicas)", num(np.phi_block_std_mean, 3),
                   "0 (imposed)", "", ""});
   rows.push_back({"std of phi over replicas (run means)", num(np.phi_spread, 3), "0 (imposed)", "",
@@ -429,7 +441,7 @@ int run_ensemble_study(const StudyOptions& options) {
     w.attr("/table", "phi_np", np.combined.values.at("phi"));
     w.attr("/table", "pressure_np", np.combined.values.at("pressure"));
     w.attr("/table", "pressure_np_err", np.combined.values.at("pressure_err"));
-    w.attr("/table", "seed_eta_block_std_ratio", 5.0);
+    w.attr("/table", "seed_eta_block_std_ratio", seed::kEnsembleStdRatio);
     w.attr("/table", "seed_phi_spread", 3e-4);
     w.commit();
   }
@@ -446,7 +458,7 @@ int run_ensemble_study(const StudyOptions& options) {
                                 std::to_string(used(nv)) + " at constant volume (the verdicts)";
   // The seed's ratio was measured at J = 3.98e-9 / 1e-5: a difference in sigma means something
   // only at that state point.
-  const double seed_j = 3.98e-9 / 1e-5;
+  const double seed_j = seed::kEnsembleRate / seed::kEnsemblePressure;
   const bool seed_point = std::abs(j / seed_j - 1.0) < 0.05;
   std::ostringstream rep;
   rep << "# Ensemble comparison (preset `" << p.name << "`)\n\n"
@@ -464,15 +476,18 @@ int run_ensemble_study(const StudyOptions& options) {
       << ". Integrator: explicit Euler, dt = 0.3 (see studies/ensemble/README.md). 20 blocks over"
          " t_av.\n\n"
       << table << "\n"
-      << "Seed (N = 1000, gdot = 3.98e-9, J = 4e-4): block std of the viscosity ~5x smaller at"
-         " constant pressure; std of phi over three runs ~3e-4.\n\n"
+      << "Seed (N = 1000, gdot = " << fmt(seed::kEnsembleRate) << ", J = " << num(seed_j, 3)
+      << "): block std of the viscosity ~" << fmt(seed::kEnsembleStdRatio)
+      << "x smaller at constant pressure; std of phi over three runs ~"
+      << fmt(seed::kEnsemblePhiSpread) << ".\n\n"
       << "Here: block std of eta NV/NP = " << pm(eta_ratio.value, eta_ratio.error)
       << (eta_ratio.error > 0.0 && seed_point
-              ? " (" + sigma_text(eta_ratio.value, eta_ratio.error, 5.0) + " from the seed's 5)"
-          : seed_point
-              ? std::string()
-              : " (not compared with the seed's ~5 in sigma: that was measured at J = " +
-                    num(seed_j, 3) + ", this is J = " + num(j, 3) + ", another state point)")
+              ? " (" + sigma_text(eta_ratio.value, eta_ratio.error, seed::kEnsembleStdRatio) +
+                    " from the seed's " + fmt(seed::kEnsembleStdRatio) + ")"
+          : seed_point ? std::string()
+                       : " (not compared with the seed's ~" + fmt(seed::kEnsembleStdRatio) +
+                             " in sigma: that was measured at J = " + num(seed_j, 3) +
+                             ", this is J = " + num(j, 3) + ", another state point)")
       << "; std of phi over replicas (NP) = " << num(np.phi_spread, 3) << ".\n\n";
   rep << "## Verdicts\n\n";
   for (const EnsembleRuns* e : {&np, &nv}) {

@@ -14,6 +14,7 @@
 
 #include "analysis/analyze_cli.hpp"
 #include "analysis/json.hpp"
+#include "analysis/seed.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "studies/common.hpp"
@@ -25,19 +26,6 @@ namespace jamflow::studies::hard_sphere {
 namespace fs = std::filesystem;
 
 namespace {
-
-struct SizeLaw {
-  double inf, a, alpha;
-};
-// The seed's Table 2 (SPEC §5).
-const std::map<std::string, SizeLaw>& table2() {
-  static const std::map<std::string, SizeLaw> t = {
-      {"phi_J", {0.6474, -0.323, 0.852}}, {"b_phi", {0.391, 0.756, 0.505}},
-      {"C_phi", {0.0683, -1.15, 1.17}},   {"mu_J", {0.108, 0.279, 0.626}},
-      {"b_mu", {0.346, 2.93, 0.946}},     {"C_mu", {0.347, -1.44, 1.02}}};
-  return t;
-}
-const char* const kParameters[] = {"phi_J", "b_phi", "C_phi", "mu_J", "b_mu", "C_mu"};
 
 // What the points cost, measured: CPU time (each replica ran on one thread) per integrator, per
 // particle force-pass equivalent and per particle and tau_0, and what the paper preset would
@@ -206,11 +194,6 @@ int run_grid_study(const std::string& study, const GridPreset& grid, const Study
   return analyze_and_report(study, grid, points, options, wall);
 }
 
-double seed_value(const std::string& parameter, double n) {
-  const SizeLaw& law = table2().at(parameter);
-  return n > 0.0 ? law.inf + law.a * std::pow(n, -law.alpha) : law.inf;
-}
-
 int analyze_and_report(const std::string& study, const GridPreset& grid, const SweepStudy& run,
                        const StudyOptions& options, double wall_seconds) {
   const std::string out = options.out_dir;
@@ -255,7 +238,8 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
       for (const auto& [n, fit] : result.at("sizes").members()) {
         const std::string g = "/fits/N" + n;
         w.group(g);
-        for (const char* p : kParameters) {
+        for (const seed::SizeLaw& law : seed::kTable2) {
+          const std::string p(law.name);
           double v = 0.0, e = 0.0;
           if (measured(fit, p, v, e)) {
             w.attr(g, p, v);
@@ -432,7 +416,8 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
         continue;
       }
       std::vector<std::vector<std::string>> rows;
-      for (const char* p : kParameters) {
+      for (const seed::SizeLaw& law : seed::kTable2) {
+        const std::string p(law.name);
         double v = 0.0, e = 0.0;
         if (!measured(fit, p, v, e))
           continue;
@@ -444,11 +429,11 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
         const bool has_sys =
             fit.at(p).contains("systematic") && fit.at(p).at("systematic").is_number();
         const double sys = has_sys ? fit.at(p).at("systematic").as_number() : 0.0;
-        const double seed = seed_value(p, nn);
+        const double paper = seed::table2(p).at(nn);
         const bool degenerate = em.contains("degenerate") && em.at("degenerate").as_bool();
-        rows.push_back({p, pm(v, e), has_sys ? num(sys, 2) : "not computable", num(seed, 4),
+        rows.push_back({p, pm(v, e), has_sys ? num(sys, 2) : "not computable", num(paper, 4),
                         degenerate ? "degenerate fit: not compared"
-                                   : sigma_text(v, std::hypot(e, sys), seed)});
+                                   : sigma_text(v, std::hypot(e, sys), paper)});
       }
       md << markdown_table({"parameter", "jamflow (statistical)", "systematic",
                             "seed at this N (Table 2 law)", "difference"},
@@ -494,7 +479,8 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
     } else {
       std::vector<std::vector<std::string>> rows;
       int resolved = 0;
-      for (const char* p : kParameters) {
+      for (const seed::SizeLaw& law : seed::kTable2) {
+        const std::string p(law.name);
         if (!ex.contains(p))
           continue;
         const auto& pe = ex.at(p);
@@ -503,10 +489,9 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
         double v = 0.0, e = 0.0;
         if (ok && measured(pe, "inf", v, e)) {
           ++resolved;
-          rows.push_back(
-              {p, pm(v, e), num(seed_value(p, 0.0), 4), sigma_text(v, e, seed_value(p, 0.0)), why});
+          rows.push_back({p, pm(v, e), num(law.inf, 4), sigma_text(v, e, law.inf), why});
         } else {
-          rows.push_back({p, "-", num(seed_value(p, 0.0), 4), "-", why});
+          rows.push_back({p, "-", num(law.inf, 4), "-", why});
         }
       }
       md << "An N -> infinity value is given only where the extrapolation O(N) = O_inf + A_O "
@@ -525,12 +510,13 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
     md << "\nnu = b / (alpha_O d): ";
     bool any = false;
     if (measured(nu, "from_phi", v, e)) {
-      md << "from phi " << pm(v, e) << " (seed 0.153, " << sigma_text(v, e, 0.153) << ")";
+      md << "from phi " << pm(v, e) << " (seed " << num(seed::kNuPhi, 3) << ", "
+         << sigma_text(v, e, seed::kNuPhi) << ")";
       any = true;
     }
     if (measured(nu, "from_mu", v, e)) {
-      md << (any ? "; " : "") << "from mu " << pm(v, e) << " (seed 0.184, "
-         << sigma_text(v, e, 0.184) << ")";
+      md << (any ? "; " : "") << "from mu " << pm(v, e) << " (seed " << num(seed::kNuMu, 3) << ", "
+         << sigma_text(v, e, seed::kNuMu) << ")";
       any = true;
     }
     if (!any)
@@ -551,11 +537,13 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
       const auto& bi = vis.at("beta_interval");
       md << "The trade-off interval [(1 - b_mu)/b_phi, 1/b_phi] of these parameters: ["
          << num(bi.at(0).as_number(), 3) << ", " << num(bi.at(1).as_number(), 3)
-         << "] (the seed's: [1.67, 2.55]).\n";
+         << "] (the seed's: [" << num(seed::kViscosityExponentLow, 3) << ", "
+         << num(seed::kViscosityExponentHigh, 3) << "]).\n";
     }
     if (measured(vis, "exponent_1", v, e))
-      md << "Asymptotic exponent 1/b_phi = " << pm(v, e) << " (seed 2.55, "
-         << sigma_text(v, e, 2.55) << ").\n";
+      md << "Asymptotic exponent 1/b_phi = " << pm(v, e) << " (seed "
+         << num(seed::kViscosityExponentHigh, 3) << ", "
+         << sigma_text(v, e, seed::kViscosityExponentHigh) << ").\n";
     if (result.contains("sizes")) {
       for (const auto& [n, fit] : result.at("sizes").members()) {
         if (fit.contains("degenerate") && fit.at("degenerate").as_bool() &&

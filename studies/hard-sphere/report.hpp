@@ -33,8 +33,4 @@ int run_grid_study(const std::string& study, const GridPreset& grid, const Study
 // --report-only. Throws ConfigError when either is missing.
 SweepStudy existing_sweep(const std::string& out_dir);
 
-// The seed's value of a Table 2 parameter at size N from its size law
-// O(N) = O_inf + A_O N^-alpha_O (SPEC §5); N <= 0 gives O_inf.
-double seed_value(const std::string& parameter, double n);
-
 }  // namespace jamflow::studies::hard_sphere

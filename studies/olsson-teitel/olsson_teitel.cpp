@@ -13,6 +13,7 @@
 #include <tuple>
 
 #include "analysis/analyze_cli.hpp"
+#include "analysis/seed.hpp"
 #include "lib/error.hpp"
 #include "studies/common.hpp"
 #include "studies/hard-sphere/report.hpp"
@@ -262,7 +263,8 @@ std::string olsson_teitel::report_markdown(const VolumePreset& preset, const Swe
   }
   md << markdown_table({"description", "parameters", "quality", "acceptable"}, rows) << "\n";
   md << "The seed finds no acceptable collapse of the whole data set (Sec. V B, Fig. 9); its "
-        "exponents are alpha = 1.33, beta = 2.55.\n\n";
+        "exponents are alpha = "
+     << num(seed::kTeitelAlpha, 3) << ", beta = " << num(seed::kTeitelBeta, 3) << ".\n\n";
   if (pinned)
     md << "**The best collapse's errors are not meaningful:** no bootstrap resample moved the "
           "optimum, which sits where a step in any direction would leave fewer than half the "

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "analysis/json.hpp"
+#include "analysis/seed.hpp"
 #include "lib/error.hpp"
 #include "studies/common.hpp"
 #include "studies/study.hpp"
@@ -81,12 +82,6 @@ std::string figures(const fs::path& dir) {
 
 // Table 2 beside jamflow's N -> infinity values (finite-size/analysis.json).
 std::string table2_section(const fs::path& analysis) {
-  struct Seed {
-    const char* name;
-    double inf;
-  };
-  const Seed seeds[] = {{"phi_J", 0.6474}, {"b_phi", 0.391}, {"C_phi", 0.0683},
-                        {"mu_J", 0.108},   {"b_mu", 0.346},  {"C_mu", 0.347}};
   std::ostringstream md;
   md << "\n## Table 2 (N -> infinity)\n\n";
   if (!fs::exists(analysis)) {
@@ -111,10 +106,11 @@ std::string table2_section(const fs::path& analysis) {
   // the reason and no value.
   std::vector<std::vector<std::string>> rows;
   int resolved = 0;
-  for (const Seed& s : seeds) {
-    if (!ex.contains(s.name))
+  for (const seed::SizeLaw& s : seed::kTable2) {
+    const std::string name(s.name);
+    if (!ex.contains(name))
       continue;
-    const auto& e = ex.at(s.name);
+    const auto& e = ex.at(name);
     const bool ok = e.contains("resolved") && e.at("resolved").as_bool();
     const std::string why = e.contains("resolution") ? e.at("resolution").as_string() : "";
     if (ok && e.contains("inf") && e.at("inf").contains("value")) {
@@ -123,9 +119,9 @@ std::string table2_section(const fs::path& analysis) {
                    err = e.at("inf").at("error").as_number();
       char z[64];
       std::snprintf(z, sizeof z, "%+.1f sigma", (v - s.inf) / err);
-      rows.push_back({s.name, pm(v, err), num(s.inf, 4), err > 0.0 ? z : "n/a", why});
+      rows.push_back({name, pm(v, err), num(s.inf, 4), err > 0.0 ? z : "n/a", why});
     } else {
-      rows.push_back({s.name, "-", num(s.inf, 4), "-", why});
+      rows.push_back({name, "-", num(s.inf, 4), "-", why});
     }
   }
   md << resolved << " of " << rows.size()

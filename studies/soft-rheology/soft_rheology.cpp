@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "analysis/analyze_cli.hpp"
+#include "analysis/seed.hpp"
 #include "studies/common.hpp"
 #include "studies/hard-sphere/report.hpp"
 #include "studies/soft-rheology/points.hpp"
@@ -27,18 +28,18 @@ constexpr double kYTarget = 0.05;  // the error on y the issue asks of the stand
 // The paper's values of the joint law (Sec. V A; Table 2 for the hard-sphere shape at this N).
 double paper_value(const std::string& name, double n) {
   if (name == "x")
-    return 0.75;
+    return seed::kX;
   if (name == "y")
-    return 0.56;
+    return seed::kY;
   if (name == "alpha")
-    return 1.33;
+    return seed::kYieldExponent;
   if (name == "phi_J0")
-    return hard_sphere::seed_value("phi_J", n);
+    return seed::table2("phi_J").at(n);
   if (name == "mu_J0")
-    return hard_sphere::seed_value("mu_J", n);
+    return seed::table2("mu_J").at(n);
   for (const char* p : {"C_phi", "b_phi", "C_mu", "b_mu"}) {
     if (name == p)
-      return hard_sphere::seed_value(p, n);
+      return seed::table2(p).at(n);
   }
   return std::nan("");
 }

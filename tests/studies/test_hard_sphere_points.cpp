@@ -6,6 +6,8 @@
 #include <cmath>
 #include <set>
 
+#include "analysis/seed.hpp"
+#include "studies/common.hpp"
 #include "studies/hard-sphere/points.hpp"
 #include "studies/hard-sphere/report.hpp"
 #include "sweep/plan.hpp"
@@ -73,13 +75,25 @@ TEST(HardSpherePoints, IntegratorFollowsSizeAndPressure) {
 
 TEST(HardSpherePoints, SeedValuesFollowTable2) {
   // The N = 1000 values from Table 2's size law.
-  EXPECT_NEAR(seed_value("phi_J", 1000), 0.6465, 5e-5);
-  EXPECT_NEAR(seed_value("b_phi", 1000), 0.414, 5e-4);
-  EXPECT_NEAR(seed_value("C_phi", 1000), 0.068, 5e-4);
-  EXPECT_NEAR(seed_value("mu_J", 1000), 0.1117, 5e-5);
-  EXPECT_NEAR(seed_value("b_mu", 1000), 0.350, 5e-4);
-  EXPECT_NEAR(seed_value("C_mu", 1000), 0.346, 5e-4);
-  EXPECT_DOUBLE_EQ(seed_value("phi_J", 0), 0.6474);
+  EXPECT_NEAR(seed::table2("phi_J").at(1000), 0.6465, 5e-5);
+  EXPECT_NEAR(seed::table2("b_phi").at(1000), 0.414, 5e-4);
+  EXPECT_NEAR(seed::table2("C_phi").at(1000), 0.068, 5e-4);
+  EXPECT_NEAR(seed::table2("mu_J").at(1000), 0.1117, 5e-5);
+  EXPECT_NEAR(seed::table2("b_mu").at(1000), 0.350, 5e-4);
+  EXPECT_NEAR(seed::table2("C_mu").at(1000), 0.346, 5e-4);
+  EXPECT_DOUBLE_EQ(seed::table2("phi_J").at(0), 0.6474);
+  EXPECT_THROW(seed::table2("phi_j"), std::out_of_range);
+  // The studies' starting packing fractions come from the same law, bit for bit as the
+  // formula written out (the committed sweeps' scenes were planned with it).
+  for (std::int64_t n : {100, 1000, 2000}) {
+    for (double j : {1e-3, 3e-2, 1.0}) {
+      const double nn = double(n);
+      const double phi_j = 0.6474 - 0.323 * std::pow(nn, -0.852);
+      const double b = 0.391 + 0.756 * std::pow(nn, -0.505);
+      const double c = 0.0683 - 1.15 * std::pow(nn, -1.17);
+      EXPECT_EQ(hard_sphere_phi(j, n), phi_j - c * std::pow(j, b)) << n << " " << j;
+    }
+  }
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "analysis/json.hpp"
+#include "analysis/seed.hpp"
 #include "studies/common.hpp"
 #include "studies/hard-sphere/report.hpp"
 #include "studies/olsson-teitel/points.hpp"
@@ -110,13 +111,13 @@ void expect_phi_j_drives_the_verdict(const std::string& study, const GridInputs&
   Json& phi_j = result["sizes"][n]["phi_J"];
   const double e = phi_j.at("error").as_number();
   const double sys = phi_j.at("systematic").is_number() ? phi_j.at("systematic").as_number() : 0.0;
-  const double seed = hard_sphere::seed_value("phi_J", std::stod(n));
-  // Ten combined errors above the seed's law: disagrees.
-  const double far = seed + 10.0 * std::hypot(e, sys);
+  const double paper = seed::table2("phi_J").at(std::stod(n));
+  // Ten combined errors above the paper's law: disagrees.
+  const double far = paper + 10.0 * std::hypot(e, sys);
   phi_j["value"] = far;
   const std::string report_far = grid_report(study, in, result);
-  // On the seed's law: agrees.
-  phi_j["value"] = seed;
+  // On the paper's law: agrees.
+  phi_j["value"] = paper;
   const std::string report_on = grid_report(study, in, result);
 
   const std::string row_far = line_starting(report_far, "| phi_J |");
@@ -124,7 +125,7 @@ void expect_phi_j_drives_the_verdict(const std::string& study, const GridInputs&
   ASSERT_FALSE(row_far.empty()) << report_far;
   EXPECT_NE(row_far.find(pm(far, e)), std::string::npos) << row_far;
   EXPECT_NE(row_far.find("+10.0 sigma (disagrees)"), std::string::npos) << row_far;
-  EXPECT_NE(row_on.find(pm(seed, e)), std::string::npos) << row_on;
+  EXPECT_NE(row_on.find(pm(paper, e)), std::string::npos) << row_on;
   EXPECT_NE(row_on.find("+0.0 sigma"), std::string::npos) << row_on;
   EXPECT_EQ(row_on.find("disagrees"), std::string::npos) << row_on;
 }
@@ -202,7 +203,7 @@ TEST(ReportsFromJson, SoftRheologyPhiJ0ChangesTheReport) {
                          ? phi.at("systematic").as_number()
                          : 0.0;
   // The paper's value at the data's N, the one the report compares with.
-  const double paper = hard_sphere::seed_value("phi_J", 1000.0);
+  const double paper = seed::table2("phi_J").at(1000.0);
   phi["value"] = paper + 10.0 * std::hypot(stat, sys);
   const std::string far = soft_report(in, result);
   phi["value"] = paper;

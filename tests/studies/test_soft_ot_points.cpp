@@ -8,6 +8,7 @@
 #include <cmath>
 #include <set>
 
+#include "analysis/seed.hpp"
 #include "lib/error.hpp"
 #include "studies/hard-sphere/report.hpp"
 #include "studies/olsson-teitel/points.hpp"
@@ -34,7 +35,7 @@ TEST(OlssonTeitelPoints, BothSidesOfJammingOverThreeDecades) {
     const sweep::Plan p = plan_of(volume_sweep_text(g));
     EXPECT_EQ(p.points.size(), g.sizes.size() * g.phis.size() * g.rates.size()) << name;
     for (const auto n : g.sizes) {
-      const double phi_j = hard_sphere::seed_value("phi_J", double(n));
+      const double phi_j = seed::table2("phi_J").at(double(n));
       int below = 0, above = 0;
       for (double phi : g.phis)
         (phi < phi_j ? below : above) += 1;
@@ -91,7 +92,7 @@ TEST(SoftRheologyPoints, PressuresForTheExponentsAndVolumesAboveJamming) {
     const sweep::Plan cv = plan_of(volume_sweep_text(g.volume));
     for (const auto& pt : cv.points) {
       const double n = number(pt, "system", "N");
-      EXPECT_GT(number(pt, "system", "phi"), hard_sphere::seed_value("phi_J", n)) << pt.name;
+      EXPECT_GT(number(pt, "system", "phi"), seed::table2("phi_J").at(n)) << pt.name;
     }
   }
   EXPECT_THROW(soft_rheology::preset("huge"), ConfigError);
