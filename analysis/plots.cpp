@@ -32,10 +32,9 @@ std::string plot_scripts_dir() {
   return env && *env ? env : data_dir("analysis/plots", JAMFLOW_ANALYSIS_SCRIPTS);
 }
 
-PlotOutcome run_plot_script(const std::string& script, const std::string& sidecar,
-                            const std::string& prefix) {
+PlotOutcome run_python_plot(const std::string& path, const std::vector<std::string>& args) {
   const std::string python = python_interpreter();
-  const std::string path = plot_scripts_dir() + "/" + script;
+  const std::string script = path.substr(path.find_last_of('/') + 1);
   if (access(python.c_str(), X_OK) != 0) {
     return {PlotStatus::kUnavailable,
             "plots skipped: no Python interpreter at '" + python + "' (set JAMFLOW_PYTHON)"};
@@ -43,12 +42,14 @@ PlotOutcome run_plot_script(const std::string& script, const std::string& sideca
   if (access(path.c_str(), R_OK) != 0) {
     return {PlotStatus::kFailed, "plots failed: cannot read plot script '" + path + "'"};
   }
-  // posix_spawn with an argument vector: no shell, so no quoting issues with
-  // file names.
-  std::string a0 = python, a1 = path, a2 = sidecar, a3 = prefix;
-  char* argv[] = {a0.data(), a1.data(), a2.data(), a3.data(), nullptr};
+  std::vector<std::string> words = {python, path};
+  words.insert(words.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (std::string& w : words)
+    argv.push_back(w.data());
+  argv.push_back(nullptr);
   pid_t pid = 0;
-  int rc = posix_spawn(&pid, python.c_str(), nullptr, nullptr, argv, environ);
+  int rc = posix_spawn(&pid, python.c_str(), nullptr, nullptr, argv.data(), environ);
   if (rc != 0) {
     return {PlotStatus::kUnavailable,
             "plots skipped: cannot run '" + python + "': " + std::strerror(rc)};
@@ -66,6 +67,11 @@ PlotOutcome run_plot_script(const std::string& script, const std::string& sideca
   }
   return {PlotStatus::kFailed, "plots failed: '" + script + "' exited with status " +
                                    std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1)};
+}
+
+PlotOutcome run_plot_script(const std::string& script, const std::string& sidecar,
+                            const std::string& prefix) {
+  return run_python_plot(plot_scripts_dir() + "/" + script, {sidecar, prefix});
 }
 
 }  // namespace jamflow::analysis

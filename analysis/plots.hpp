@@ -1,7 +1,7 @@
-// Runs the matplotlib scripts of analysis/plots/ on a plot sidecar JSON.
-// The interpreter is JAMFLOW_PYTHON (environment, else the build-time path:
-// Debian's python3 with matplotlib); the scripts directory is
-// JAMFLOW_ANALYSIS_SCRIPTS (environment, else the source tree).
+// The one launcher of plot scripts, for the analyses (the matplotlib scripts of analysis/plots/,
+// on a plot sidecar JSON) and the studies (their plot.py). The interpreter is JAMFLOW_PYTHON
+// (environment, else the build-time path: Debian's python3 with matplotlib); the analyses'
+// scripts directory is JAMFLOW_ANALYSIS_SCRIPTS (environment, else the source tree).
 #pragma once
 
 #include <string>
@@ -19,8 +19,11 @@ struct PlotOutcome {
   std::string message;  // one line, for warnings and errors
 };
 
-// Runs `python script sidecar prefix`; the script writes prefix_figN.png.
-// kUnavailable: no interpreter or no matplotlib (the script exits with 3).
+// Runs `python path args...` with an argument vector (no shell, so any file name) and waits.
+// kUnavailable: no interpreter, or no matplotlib (the script exits with 3).
+PlotOutcome run_python_plot(const std::string& path, const std::vector<std::string>& args);
+
+// Runs `python <plot_scripts_dir()>/script sidecar prefix`; the script writes prefix_figN.png.
 PlotOutcome run_plot_script(const std::string& script, const std::string& sidecar,
                             const std::string& prefix);
 

@@ -9,14 +9,12 @@
 #include <fstream>
 #include <sstream>
 
+#include "analysis/plots.hpp"
 #include "analysis/seed.hpp"
 #include "lib/data_files.hpp"
 #include "lib/error.hpp"
 #include "lib/text_file.hpp"
 
-#ifndef JAMFLOW_PYTHON
-#define JAMFLOW_PYTHON "/usr/bin/python3"
-#endif
 #ifndef JAMFLOW_STUDIES_DIR
 #define JAMFLOW_STUDIES_DIR "studies"
 #endif
@@ -80,16 +78,10 @@ bool run_plot(const std::string& script, const std::vector<std::string>& args,
               const StudyOptions& options) {
   if (options.no_plots)
     return false;
-  const char* env = std::getenv("JAMFLOW_PYTHON");
-  const std::string python = env && *env ? env : JAMFLOW_PYTHON;
-  const std::string dir = data_dir("studies", JAMFLOW_STUDIES_DIR);
-  std::string cmd = "'" + python + "' '" + dir + "/" + script + "'";
-  for (const auto& a : args)
-    cmd += " '" + a + "'";
-  const int rc = std::system(cmd.c_str());
-  if (rc != 0) {
-    std::fprintf(stderr, "warning: plot script %s failed (exit %d); data and tables are written\n",
-                 script.c_str(), rc);
+  const analysis::PlotOutcome o =
+      analysis::run_python_plot(data_dir("studies", JAMFLOW_STUDIES_DIR) + "/" + script, args);
+  if (o.status != analysis::PlotStatus::kOk) {
+    std::fprintf(stderr, "warning: %s; data and tables are written\n", o.message.c_str());
     return false;
   }
   return true;

@@ -12,6 +12,7 @@
 
 #include "analysis/analyze_cli.hpp"
 #include "analysis/json.hpp"
+#include "analysis/plots.hpp"
 #include "tests/analysis/synthetic.hpp"
 #include "tests/analysis/test_util.hpp"
 
@@ -247,6 +248,38 @@ TEST(Cli, OlssonTeitelWithPlotsOrAWarningWhenPythonIsMissing) {
   if (r.err.find("plots skipped") == std::string::npos) {
     EXPECT_TRUE(std::filesystem::exists(dir.file("ot_fig9.png")));
   }
+}
+
+// The one plot launcher (analysis and studies alike) hands its arguments over as they are: a
+// file name with quotes and spaces, which a shell command line would have split or broken.
+TEST(PlotLauncher, ArgumentsReachTheScriptVerbatimAndFailuresAreNamed) {
+  ScratchDir dir;
+  const std::string script = dir.write("echo args.py",
+                                       "import sys\n"
+                                       "open(sys.argv[1], 'w').write('\\n'.join(sys.argv[2:]))\n"
+                                       "sys.exit(int(sys.argv[2]))\n");
+  const std::string out = dir.file("it's out.txt");
+  const std::vector<std::string> odd = {"0", "a b", "it's", "\"q\"", "$HOME", ""};
+  std::vector<std::string> args = {out};
+  args.insert(args.end(), odd.begin(), odd.end());
+  PlotOutcome o = run_python_plot(script, args);
+  ASSERT_EQ(o.status, PlotStatus::kOk) << o.message;
+  std::string expected;
+  for (std::size_t k = 0; k < odd.size(); ++k)
+    expected += (k ? "\n" : "") + odd[k];
+  EXPECT_EQ(read_text(out), expected);
+  // A script that fails is named with its status; exit 3 means no matplotlib.
+  args[1] = "5";
+  o = run_python_plot(script, args);
+  EXPECT_EQ(o.status, PlotStatus::kFailed);
+  EXPECT_NE(o.message.find("'echo args.py' exited with status 5"), std::string::npos) << o.message;
+  args[1] = "3";
+  EXPECT_EQ(run_python_plot(script, args).status, PlotStatus::kUnavailable);
+  ::setenv("JAMFLOW_PYTHON", "/nonexistent/python3", 1);
+  o = run_python_plot(script, args);
+  ::unsetenv("JAMFLOW_PYTHON");
+  EXPECT_EQ(o.status, PlotStatus::kUnavailable);
+  EXPECT_NE(o.message.find("/nonexistent/python3"), std::string::npos) << o.message;
 }
 
 TEST(Cli, OlssonTeitelFitsTheSoftRheologyWhenPressuresAreMeasured) {
