@@ -20,10 +20,12 @@
 #include <fstream>
 #include <map>
 #include <new>
+#include <optional>
 #include <sstream>
 #include <tuple>
 #include <type_traits>
 
+#include "analysis/admission.hpp"
 #include "analysis/errors.hpp"
 #include "analysis/json.hpp"
 #include "lib/statistics.hpp"
@@ -263,27 +265,25 @@ ErrorBasis row_errors(const CsvTable& t, std::size_t r,
 }
 
 // Rows of a collected sweep table (`jamflow sweep --collect`) carry the runs' verdicts in the
-// columns steady, stable and decorrelated (1 pass, 0 fail, empty not checked). A row that is
-// not steady or not stable in some replica is left out. One whose blocks are shorter than two
-// correlation times (not decorrelated) is kept when it has two replicas or more: from 3 its
-// errors include the scatter of independent replicas, which needs no decorrelated blocks; with
-// 2 in a table with separate error parts its error is the block error, and its basis
+// columns steady, stable and decorrelated (1 pass, 0 fail, empty not checked), admitted by the
+// rule of analysis/admission.hpp. A row kept with blocks shorter than two correlation times has
+// from 3 replicas errors that include their scatter, which needs no decorrelated blocks; with 2
+// in a table with separate error parts its error is the block error, and its basis
 // (kBlockTwoShort) says that this understates it; an older table's errors include the scatter
 // of its 2 replicas, as collected.
 // Returns the reason to leave the row out, or "".
 std::string failed_verdicts(const CsvTable& t, std::size_t r) {
-  std::string why;
-  auto failed = [&](const char* name) {
+  auto verdict = [&](const char* name) -> std::optional<bool> {
     const int c = t.column(name);
-    return c >= 0 && t.rows[r][static_cast<std::size_t>(c)] == "0";
+    if (c < 0)
+      return std::nullopt;
+    const std::string& cell = t.rows[r][static_cast<std::size_t>(c)];
+    if (cell == "0" || cell == "1")
+      return cell == "1";
+    return std::nullopt;
   };
-  for (const char* v : {"steady", "stable"}) {
-    if (failed(v))
-      why.append(why.empty() ? "" : ", ").append("not ").append(v);
-  }
-  if (failed("decorrelated") && replicas_of(t, r) < 2.0)
-    why.append(why.empty() ? "" : ", ").append("not decorrelated (one replica)");
-  return why;
+  return admit({verdict("steady"), verdict("stable"), verdict("decorrelated"), replicas_of(t, r)})
+      .reason;
 }
 
 // The rows of a table that the analyses use, with one note on stderr for those left out (or,

@@ -11,11 +11,13 @@
 #include <functional>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
 #include <toml++/toml.h>
 
+#include "analysis/admission.hpp"
 #include "driver/checkpoint.hpp"
 #include "driver/simulation.hpp"
 #include "lib/error.hpp"
@@ -580,18 +582,20 @@ DiagnosedRun diagnose_file(const std::string& label, const RunSpec& spec, const 
     }
   }
   d.cls = classify(d.result, d.balance, ok && request.window ? &d.window : nullptr, thresholds);
-  // The run's own verdicts: a stable run whose window still drifts is kept out of conclusions,
-  // and so is one whose blocks are shorter than 2 tau (one replica: no scatter to fall back on).
+  // The run's own verdicts, by the admission rule of every table (analysis/admission.hpp): a
+  // stable run whose window still drifts is kept out of conclusions, and so is one whose blocks
+  // are shorter than 2 tau with one replica (no scatter to fall back on).
   const std::string drift = failed_verdict(d.result.summary, "steady");
   const std::string short_blocks = failed_verdict(d.result.summary, "decorrelated");
+  const auto replicas = d.result.summary.values.find("replicas");
+  const analysis::Admission admission =
+      analysis::admit({drift.empty() ? std::nullopt : std::optional<bool>(false), std::nullopt,
+                       short_blocks.empty() ? std::nullopt : std::optional<bool>(false),
+                       replicas == d.result.summary.values.end() ? 1.0 : replicas->second});
   d.cls.correlated = !short_blocks.empty();
-  if (d.cls.verdict == Verdict::kStable && !drift.empty()) {
-    d.cls.verdict = Verdict::kNotSteady;
-    d.cls.reason = drift;
-  } else if (d.cls.verdict == Verdict::kStable && d.cls.correlated &&
-             d.result.summary.values.count("replicas") == 0) {
-    d.cls.verdict = Verdict::kCorrelated;
-    d.cls.reason = short_blocks;
+  if (d.cls.verdict == Verdict::kStable && !admission.admitted) {
+    d.cls.verdict = drift.empty() ? Verdict::kCorrelated : Verdict::kNotSteady;
+    d.cls.reason = drift.empty() ? short_blocks : drift;
   }
   return d;
 }

@@ -4,8 +4,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
+#include "analysis/admission.hpp"
 #include "driver/checkpoint.hpp"
 #include "lib/statistics.hpp"
 #include "studies/common.hpp"
@@ -199,15 +201,21 @@ std::string kept_label(const Table& table, std::size_t r) {
 std::vector<std::vector<std::string>> flagged_rows(const Table& table) {
   std::vector<std::vector<std::string>> flagged;
   for (std::size_t r = 0; r < table.rows.size(); ++r) {
+    auto verdict = [&](const char* name) -> std::optional<bool> {
+      const double v = table.number(r, name);
+      return v == 0.0 || v == 1.0 ? std::optional<bool>(v == 1.0) : std::nullopt;
+    };
+    const analysis::Admission a =
+        analysis::admit({verdict("steady"), verdict("stable"), verdict("decorrelated"),
+                         table.number(r, "replicas")});
     std::string why;
     for (const char* v : {"steady", "stable", "decorrelated"}) {
-      if (table.number(r, v) == 0.0)
+      if (verdict(v) == false)
         why.append(why.empty() ? "" : ", ").append("not ").append(v);
     }
     if (!why.empty()) {
-      const bool kept = why == "not decorrelated" && table.number(r, "replicas") >= 2.0;
-      flagged.push_back(
-          {table.text(r, "point"), why, kept ? kept_label(table, r) : std::string("left out")});
+      flagged.push_back({table.text(r, "point"), why,
+                         a.admitted ? kept_label(table, r) : std::string("left out")});
     }
   }
   return flagged;

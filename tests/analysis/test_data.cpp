@@ -10,9 +10,11 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <random>
 #include <string>
 
+#include "analysis/admission.hpp"
 #include "analysis/data.hpp"
 #include "analysis/errors.hpp"
 #include "analysis/json.hpp"
@@ -55,6 +57,30 @@ TEST(CsvReader, ReadsGranularTableInAnyColumnOrderWithComments) {
 
 // A collected sweep table: rows whose verdicts failed are left out (not steady, not stable;
 // not decorrelated only with a single replica), the rest are read as usual.
+// The one admission rule (tables, study reports, run diagnostics).
+TEST(Admission, LeavesOutUnsteadyUnstableAndSingleReplicaShortBlocks) {
+  const std::optional<bool> pass = true, fail = false, unchecked = std::nullopt;
+  EXPECT_TRUE(admit({pass, pass, pass, 1.0}).admitted);
+  EXPECT_TRUE(admit({unchecked, unchecked, unchecked, 0.0}).admitted);
+  EXPECT_EQ(admit({fail, pass, pass, 4.0}).reason, "not steady");
+  EXPECT_EQ(admit({pass, fail, pass, 4.0}).reason, "not stable");
+  EXPECT_EQ(admit({fail, fail, fail, 1.0}).reason,
+            "not steady, not stable, not decorrelated (one replica)");
+  // Blocks shorter than 2 tau: kept from 2 replicas on, and said so.
+  for (double replicas : {0.0, 1.0, std::nan("")}) {
+    const Admission a = admit({pass, pass, fail, replicas});
+    EXPECT_FALSE(a.admitted) << replicas;
+    EXPECT_EQ(a.reason, "not decorrelated (one replica)");
+  }
+  for (double replicas : {2.0, 3.0}) {
+    const Admission a = admit({pass, unchecked, fail, replicas});
+    EXPECT_TRUE(a.admitted) << replicas;
+    EXPECT_TRUE(a.short_blocks);
+    EXPECT_EQ(a.reason, "");
+  }
+  EXPECT_FALSE(admit({pass, pass, pass, 1.0}).short_blocks);
+}
+
 TEST(CsvReader, CollectedTableRowsWithFailedVerdictsAreLeftOut) {
   ScratchDir dir;
   auto path = dir.write("sweep.csv",
