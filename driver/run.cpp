@@ -166,7 +166,7 @@ Length decide_length(const RunSpec& spec, const Series& series, const StepPairs*
   const std::string name = !sheared ? "pressure" : spec.ensemble->imposed_pressure() ? "mu" : "eta";
   const double value = sum.values.at(name), err = sum.values.at(name + "_err");
   const double rel = std::abs(err / value);
-  const bool decorrelated = sum.verdicts.at("decorrelated") == "pass";
+  const bool decorrelated = sum.verdicts.at("decorrelated").passed();
   char what[200];
   std::snprintf(what, sizeof what, "relative error of %s %.3g %s target_error %g%s at t_av = %g",
                 name.c_str(), rel, rel <= spec.target_error ? "<=" : ">", spec.target_error,

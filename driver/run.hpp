@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "ensembles/ensemble.hpp"
@@ -89,12 +90,32 @@ struct Series {
   std::vector<double> column(double Sample::*field) const;
 };
 
+// One verdict of a summary (driver/verdicts.hpp): passed, failed and why, or not checked and
+// why. Run files hold it as text(): "pass", "fail: <why>" or "not checked: <why>".
+struct Verdict {
+  enum class Outcome { kPass, kFail, kNotChecked };
+  Outcome outcome = Outcome::kNotChecked;
+  std::string why;  // empty when passed
+
+  static Verdict pass() { return {Outcome::kPass, {}}; }
+  static Verdict fail(std::string why) { return {Outcome::kFail, std::move(why)}; }
+  static Verdict not_checked(std::string why) { return {Outcome::kNotChecked, std::move(why)}; }
+  // The text of a run file; anything else is "not checked", with the text as why.
+  static Verdict parse(const std::string& text);
+
+  bool passed() const { return outcome == Outcome::kPass; }
+  bool failed() const { return outcome == Outcome::kFail; }
+  std::string text() const;
+  double value() const;  // 1 passed, 0 failed, NaN not checked (the summary value of its name)
+  bool operator==(const Verdict&) const = default;
+};
+
 struct Summary {
   std::map<std::string, double> values;  // name -> value (see write_summary for the names)
   std::vector<std::string> warnings;
-  // The verdicts (driver/verdicts.hpp): "steady", "stable", "decorrelated" -> "pass", or
-  // "fail: <why>", or "not checked: <why>". values[name] is 1 for pass, 0 for fail, NaN else.
-  std::map<std::string, std::string> verdicts;
+  // The verdicts (driver/verdicts.hpp) by name: "steady", "stable", "decorrelated".
+  // values[name] is verdicts[name].value().
+  std::map<std::string, Verdict> verdicts;
   // Texts: "run_length" (with t_av = "auto": whether the target or max_time ended the run),
   // "t_eq_method".
   std::map<std::string, std::string> texts;

@@ -97,7 +97,7 @@ void write_replica(H5Writer& w, const RunSpec& spec, const ReplicaResult& r,
   for (const auto& [k, v] : src.summary.values)
     w.attr(sm, k, v);
   for (const auto& [k, v] : src.summary.verdicts)
-    w.attr(sm, "verdict_" + k, v);
+    w.attr(sm, "verdict_" + k, v.text());
   for (const auto& [k, v] : r.summary.texts)
     w.attr(sm, k, v);
   w.attr(sm, "N", static_cast<std::int64_t>(n));

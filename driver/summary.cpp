@@ -2,6 +2,7 @@
 // summary printed at the end of `jamflow run`.
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 
 #include "driver/run.hpp"
@@ -30,9 +31,35 @@ bool finished_status(const std::string& status) {
   return status == "complete" || stopped_by_budget(status);
 }
 
+Verdict Verdict::parse(const std::string& text) {
+  if (text == "pass")
+    return pass();
+  if (text.rfind("fail: ", 0) == 0)
+    return fail(text.substr(6));
+  if (text.rfind("not checked: ", 0) == 0)
+    return not_checked(text.substr(13));
+  return not_checked(text == "not checked" ? std::string() : text);
+}
+
+std::string Verdict::text() const {
+  switch (outcome) {
+    case Outcome::kPass:
+      return "pass";
+    case Outcome::kFail:
+      return "fail: " + why;
+    case Outcome::kNotChecked:
+      break;
+  }
+  return why.empty() ? "not checked" : "not checked: " + why;
+}
+
+double Verdict::value() const {
+  return passed() ? 1.0 : failed() ? 0.0 : std::numeric_limits<double>::quiet_NaN();
+}
+
 bool Summary::failed() const {
-  for (const auto& [name, text] : verdicts)
-    if (text.rfind("fail", 0) == 0)
+  for (const auto& [name, verdict] : verdicts)
+    if (verdict.failed())
       return true;
   return false;
 }
@@ -132,8 +159,8 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
     }
   }
   auto verdict = [&](const std::string& name, bool pass, const std::string& why) {
-    sum.verdicts[name] = pass ? "pass" : "fail: " + why;
-    out[name] = pass ? 1.0 : 0.0;
+    sum.verdicts[name] = pass ? Verdict::pass() : Verdict::fail(why);
+    out[name] = sum.verdicts[name].value();
   };
   // A value that is not a number (0 / 0 with no contacts, say) fails the verdict that rests on
   // it: NaN would pass every test written as !(x > limit).
@@ -218,14 +245,14 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
   if (!unstable.empty()) {
     verdict("stable", false, unstable);
   } else if (!unchecked.empty() && !(steps && steps->pairs > 0)) {
-    sum.verdicts["stable"] = "not checked: " + unchecked;
-    out["stable"] = std::numeric_limits<double>::quiet_NaN();
+    sum.verdicts["stable"] = Verdict::not_checked(unchecked);
+    out["stable"] = sum.verdicts["stable"].value();
   } else {
     verdict("stable", true, "");
   }
-  for (const auto& [name, text] : sum.verdicts) {
-    if (text.rfind("fail", 0) == 0)
-      sum.warnings.push_back("not " + name + ": " + text.substr(6));
+  for (const auto& [name, v] : sum.verdicts) {
+    if (v.failed())
+      sum.warnings.push_back("not " + name + ": " + v.why);
   }
   return sum;
 }
@@ -265,25 +292,21 @@ Summary combine_replicas(const std::vector<Summary>& summaries) {
   }
   out.values["replicas"] = double(k);
   // A verdict of the replicas passes only if it passes for each of them.
-  for (const auto& [name, text] : summaries.front().verdicts) {
-    (void)text;
-    std::string combined = "pass";
-    double value = 1.0;
+  for (const auto& [name, first] : summaries.front().verdicts) {
+    (void)first;
+    Verdict combined = Verdict::pass();
     for (std::size_t r = 0; r < k; ++r) {
       const auto it = summaries[r].verdicts.find(name);
-      const std::string v = it == summaries[r].verdicts.end() ? "not checked" : it->second;
-      if (v.rfind("fail", 0) == 0) {
-        combined = "fail: replica " + std::to_string(r) + ": " + v.substr(6);
-        value = 0.0;
+      const Verdict v = it == summaries[r].verdicts.end() ? Verdict::not_checked("") : it->second;
+      if (v.failed()) {
+        combined = Verdict::fail("replica " + std::to_string(r) + ": " + v.why);
         break;
       }
-      if (v != "pass" && combined == "pass") {
+      if (!v.passed() && combined.passed())
         combined = v;
-        value = std::numeric_limits<double>::quiet_NaN();
-      }
     }
     out.verdicts[name] = combined;
-    out.values[name] = value;
+    out.values[name] = combined.value();
   }
   for (std::size_t r = 0; r < k; ++r) {
     for (const auto& w : summaries[r].warnings)
@@ -347,8 +370,8 @@ bool print_summary(const RunSpec& spec, const std::vector<ReplicaResult>& result
   std::printf("  J              = %.6e\n", get("J"));
   std::printf("  energy_balance = %.4f\n", get("energy_balance"));
   std::printf("  tau_sigma_xy   = %.4g\n", get("tau_sigma_xy"));
-  for (const auto& [name, text] : combined.verdicts)
-    std::printf("  %-14s = %s\n", name.c_str(), text.c_str());
+  for (const auto& [name, v] : combined.verdicts)
+    std::printf("  %-14s = %s\n", name.c_str(), v.text().c_str());
   if (spec.auto_eq || spec.auto_av) {
     for (std::size_t r = 0; r < results.size(); ++r) {
       const auto& t = results[r].summary;

@@ -414,7 +414,7 @@ py::dict summary_dict(const jamflow::RunSpec& spec, const jamflow::Summary& sum,
   for (const auto& [k, v] : sum.values)
     d[py::str(k)] = v;
   for (const auto& [k, v] : sum.verdicts)
-    d[py::str("verdict_" + k)] = v;
+    d[py::str("verdict_" + k)] = v.text();
   for (const auto& [k, v] : r.summary.texts)
     d[py::str(k)] = v;
   d["N"] = py::int_(r.final_state.size());

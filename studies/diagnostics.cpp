@@ -425,8 +425,7 @@ namespace {
 // The text of a failed verdict ("" if it passed or was not checked).
 std::string failed_verdict(const Summary& summary, const char* name) {
   const auto it = summary.verdicts.find(name);
-  return it != summary.verdicts.end() && it->second.rfind("fail: ", 0) == 0 ? it->second.substr(6)
-                                                                            : std::string();
+  return it != summary.verdicts.end() && it->second.failed() ? it->second.why : std::string();
 }
 
 // The last non-empty line of a file (a run's log: what stopped it).

@@ -441,8 +441,8 @@ std::string unstable_reason(const DiagnosedRun& r) {
   if (r.result.status != "complete")
     return r.verdict_text();
   const auto it = r.result.summary.verdicts.find("stable");
-  if (it != r.result.summary.verdicts.end() && it->second.rfind("fail", 0) == 0)
-    return it->second;
+  if (it != r.result.summary.verdicts.end() && it->second.failed())
+    return it->second.text();
   return {};
 }
 
@@ -475,7 +475,7 @@ analysis::CompareInput analysis_input(const ComparePlan& plan,
       si.stable = si.stable && why.empty();
       const auto& v = r.result.summary.verdicts;
       const auto steady = v.find("steady");
-      si.steady = si.steady && !(steady != v.end() && steady->second.rfind("fail", 0) == 0);
+      si.steady = si.steady && !(steady != v.end() && steady->second.failed());
       all_complete = all_complete && r.result.status == "complete";
     }
     // Pairs need every replica: a setting whose preparation failed for some replica did not run
@@ -537,9 +537,9 @@ void diagnostics_of(SettingRuns& sr) {
       ++nc;
     }
     const auto& v = r.result.summary.verdicts;
-    if (auto it = v.find("steady"); it != v.end() && it->second.rfind("fail", 0) == 0)
+    if (auto it = v.find("steady"); it != v.end() && it->second.failed())
       ++sr.steady_failed;
-    if (auto it = v.find("decorrelated"); it != v.end() && it->second.rfind("fail", 0) == 0)
+    if (auto it = v.find("decorrelated"); it != v.end() && it->second.failed())
       ++sr.decorrelated_failed;
   }
   if (nb > 0) {
@@ -689,8 +689,9 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
       md += "Preparation " + p.label + " did not finish (" + p.verdict_text() +
             "): the settings that start from it are not analysed (to retry, remove its "
             "folder under prepare/runs/points/ and run again).\n\n";
-    else if (steady != v.end() && steady->second.rfind("fail", 0) == 0)
-      md += "Preparation " + p.label + " still drifts in its second half (" + steady->second +
+    else if (steady != v.end() && steady->second.failed())
+      md += "Preparation " + p.label + " still drifts in its second half (" +
+            steady->second.text() +
             "): the settings' t_eq has to absorb the rest of its transient.\n\n";
   }
   md += "Observables: " + join(plan.observables) +

@@ -154,8 +154,8 @@ void finish_ensemble(EnsembleRuns& e) {
   std::vector<const ReplicaResult*> used;
   for (std::size_t k = 0; k < e.runs.size(); ++k) {
     const auto it = e.runs[k].summary.verdicts.find("steady");
-    if (it != e.runs[k].summary.verdicts.end() && it->second.rfind("fail: ", 0) == 0)
-      e.excluded.push_back("replica " + std::to_string(k) + ": " + it->second.substr(6));
+    if (it != e.runs[k].summary.verdicts.end() && it->second.failed())
+      e.excluded.push_back("replica " + std::to_string(k) + ": " + it->second.why);
     else
       used.push_back(&e.runs[k]);
   }
@@ -512,7 +512,7 @@ int run_ensemble_study(const StudyOptions& options) {
     for (const EnsembleRuns* e : {&np, &nv}) {
       for (std::size_t k = 0; k < e->runs.size(); ++k) {
         const auto it = e->runs[k].summary.verdicts.find("decorrelated");
-        if (it != e->runs[k].summary.verdicts.end() && it->second.rfind("fail", 0) == 0)
+        if (it != e->runs[k].summary.verdicts.end() && it->second.failed())
           short_blocks += std::string(short_blocks.empty() ? "" : ", ") + e->name + " replica " +
                           std::to_string(k);
       }

@@ -45,6 +45,23 @@ Summary run(const RunSpec& spec) {
   return r.summary;
 }
 
+// A verdict round-trips through its run-file text, and older texts read as what they say.
+TEST(Verdicts, TextRoundTrip) {
+  for (const Verdict& v : {Verdict::pass(), Verdict::fail("phi drifts"), Verdict::not_checked("no"),
+                           Verdict::not_checked("")}) {
+    EXPECT_EQ(Verdict::parse(v.text()), v) << v.text();
+  }
+  EXPECT_EQ(Verdict::fail("x: y").text(), "fail: x: y");
+  EXPECT_EQ(Verdict::not_checked("").text(), "not checked");
+  EXPECT_TRUE(Verdict::parse("pass").passed());
+  EXPECT_EQ(Verdict::parse("fail: blocks too short").why, "blocks too short");
+  EXPECT_FALSE(Verdict::parse("failed").failed());  // not a verdict's text: not checked
+  EXPECT_EQ(Verdict::parse("failed").why, "failed");
+  EXPECT_EQ(Verdict::pass().value(), 1.0);
+  EXPECT_EQ(Verdict::fail("x").value(), 0.0);
+  EXPECT_TRUE(std::isnan(Verdict::not_checked("x").value()));
+}
+
 TEST(TrendT, SeesALineAndNotNoise) {
   std::vector<double> line(20), flat(20, 3.0), noise(20);
   std::mt19937 rng(1);
@@ -72,9 +89,9 @@ TEST(TrendT, SeesALineAndNotNoise) {
 // against tau_sigma_xy of a few tau at gdot = 1e-2, and a window that starts after the transient.
 TEST(Verdicts, PassAHealthyRun) {
   const Summary s = run(spec_of(scene(kVolume, 0.62, 1e-2, 0.1, 500.0, 2000.0)));
-  EXPECT_EQ(s.verdicts.at("stable"), "pass");
-  EXPECT_EQ(s.verdicts.at("steady"), "pass");
-  EXPECT_EQ(s.verdicts.at("decorrelated"), "pass");
+  EXPECT_TRUE(s.verdicts.at("stable").passed()) << s.verdicts.at("stable").text();
+  EXPECT_TRUE(s.verdicts.at("steady").passed()) << s.verdicts.at("steady").text();
+  EXPECT_TRUE(s.verdicts.at("decorrelated").passed()) << s.verdicts.at("decorrelated").text();
   EXPECT_FALSE(s.failed());
   EXPECT_GT(s.values.at("force_step_correlation"), 0.99);
   for (const auto& w : s.warnings)
@@ -85,7 +102,7 @@ TEST(Verdicts, PassAHealthyRun) {
 // and the energy balance collapses (0.12 at N = 200, where the dissipation is inflated).
 TEST(Verdicts, FlagAnUnstableRun) {
   const Summary s = run(spec_of(scene(kVolume, 0.62, 1e-3, 0.5, 100.0, 1000.0)));
-  EXPECT_EQ(s.verdicts.at("stable").rfind("fail: ", 0), 0u) << s.verdicts.at("stable");
+  EXPECT_TRUE(s.verdicts.at("stable").failed()) << s.verdicts.at("stable").text();
   EXPECT_EQ(s.values.at("stable"), 0.0);
   EXPECT_LT(s.values.at("force_step_correlation"), 0.0);
   EXPECT_LT(s.values.at("energy_balance_corrected"), 0.5);
@@ -100,8 +117,9 @@ TEST(Verdicts, FlagAnUnstableRun) {
 TEST(Verdicts, FlagAStatePointThatIsStillDrifting) {
   const Summary s = run(spec_of(scene("kind = \"constant_pressure\"\npressure = 1e-3\nxi_V = 1",
                                       0.45, 1e-3, 0.1, 0.0, 200.0)));
-  EXPECT_EQ(s.verdicts.at("steady").rfind("fail: phi drifts from", 0), 0u)
-      << s.verdicts.at("steady");
+  EXPECT_TRUE(s.verdicts.at("steady").failed());
+  EXPECT_EQ(s.verdicts.at("steady").why.rfind("phi drifts from", 0), 0u)
+      << s.verdicts.at("steady").why;
   EXPECT_GT(s.values.at("trend_t_phi"), 4.0);
   EXPECT_TRUE(s.failed());
 }
@@ -121,12 +139,14 @@ TEST(Verdicts, NonFiniteValuesFailTheirVerdicts) {
   const Summary s = summarize(spec, series, &steps);
   EXPECT_TRUE(std::isnan(s.values.at("mu")));
   EXPECT_TRUE(std::isinf(s.values.at("J")));
-  const std::string& steady = s.verdicts.at("steady");
+  ASSERT_TRUE(s.verdicts.at("steady").failed());
+  const std::string steady = s.verdicts.at("steady").text();
   EXPECT_EQ(steady.rfind("fail: ", 0), 0u) << steady;
   EXPECT_NE(steady.find("mu = "), std::string::npos) << steady;
   EXPECT_NE(steady.find("J = inf"), std::string::npos) << steady;
   EXPECT_NE(steady.find("not finite"), std::string::npos) << steady;
-  const std::string& stable = s.verdicts.at("stable");
+  ASSERT_TRUE(s.verdicts.at("stable").failed());
+  const std::string stable = s.verdicts.at("stable").text();
   EXPECT_EQ(stable.rfind("fail: energy balance = ", 0), 0u) << stable;
   EXPECT_NE(stable.find("not finite"), std::string::npos) << stable;
   EXPECT_EQ(s.values.at("steady"), 0.0);
@@ -139,10 +159,8 @@ TEST(Verdicts, NonFiniteValuesFailTheirVerdicts) {
   const RunSpec dilute = spec_of(scene(kVolume, 0.6, 1e-3, 0.1, 0.0, 20.0), {"system.phi=1e-9"});
   const ReplicaResult r = run_replica(dilute, 1, opt);
   ASSERT_EQ(r.status, "complete");
-  EXPECT_EQ(r.summary.verdicts.at("steady").rfind("fail: ", 0), 0u)
-      << r.summary.verdicts.at("steady");
-  EXPECT_EQ(r.summary.verdicts.at("stable").rfind("fail: ", 0), 0u)
-      << r.summary.verdicts.at("stable");
+  EXPECT_TRUE(r.summary.verdicts.at("steady").failed()) << r.summary.verdicts.at("steady").text();
+  EXPECT_TRUE(r.summary.verdicts.at("stable").failed()) << r.summary.verdicts.at("stable").text();
 }
 
 // t_av = "auto" at gdot = 1e-2, N = 200: eta's relative block error falls below 2% within a few
@@ -156,7 +174,7 @@ TEST(AutoLength, TavReachesItsTargetOrStopsAtMaxTime) {
   EXPECT_EQ(a.texts.at("run_length").rfind("target reached: relative error of eta", 0), 0u)
       << a.texts.at("run_length");
   EXPECT_LE(a.values.at("eta_err") / a.values.at("eta"), 0.02);
-  EXPECT_EQ(a.verdicts.at("decorrelated"), "pass");
+  EXPECT_TRUE(a.verdicts.at("decorrelated").passed()) << a.verdicts.at("decorrelated").text();
   EXPECT_LT(a.values.at("t_eq") + a.values.at("t_av"), 20000.0);
   const RunSpec out_of_reach =
       spec_of(base, {"run.t_av=\"auto\"", "run.target_error=1e-4", "run.max_time=1500.0"});
@@ -184,7 +202,7 @@ TEST(AutoLength, TeqFindsTheEndOfTheStartUpTransient) {
   EXPECT_LT(s.values.at("t_eq"), 300.0);
   EXPECT_EQ(s.texts.at("t_eq_method").rfind("MSER-5", 0), 0u);
   EXPECT_GE(s.values.at("t_av"), 1500.0 - 1e-9);
-  EXPECT_EQ(s.verdicts.at("steady"), "pass");
+  EXPECT_TRUE(s.verdicts.at("steady").passed()) << s.verdicts.at("steady").text();
 }
 
 std::string config_error(const std::string& text, const std::vector<std::string>& sets) {

@@ -179,33 +179,33 @@ TEST(Diagnostics, Classification) {
   WindowResult w;
   w.steps_done = 100;
   w.force_correlation = 0.999;
-  EXPECT_EQ(classify(r, eb, &w, {}).verdict, Verdict::kStable);
+  EXPECT_EQ(classify(r, eb, &w, {}).verdict, studies::Verdict::kStable);
   w.force_correlation = 0.5;  // period-2 share 25 %
-  EXPECT_EQ(classify(r, eb, &w, {}).verdict, Verdict::kOscillating);
+  EXPECT_EQ(classify(r, eb, &w, {}).verdict, studies::Verdict::kOscillating);
   w.force_correlation = 0.999;
   w.lane_order = 0.6;
   const Classification laned = classify(r, eb, &w, {});
-  EXPECT_EQ(laned.verdict, Verdict::kStable);
+  EXPECT_EQ(laned.verdict, studies::Verdict::kStable);
   EXPECT_TRUE(laned.laned);
 
   ReplicaResult bad;
   bad.series.samples = balance_series(2.0, 10.0, 0.01, 0.0);
   EnergyBalance eb_bad = energy_balance(bad.series.samples, 100.0, 1e-3, {}, 20);
   const Classification osc = classify(bad, eb_bad, nullptr, {});
-  EXPECT_EQ(osc.verdict, Verdict::kOscillating);
+  EXPECT_EQ(osc.verdict, studies::Verdict::kOscillating);
   EXPECT_NE(osc.reason.find("energy balance"), std::string::npos);
 
   ReplicaResult failed = r;
   failed.status = "failed at t = 12: forces became non-finite";
-  EXPECT_EQ(classify(failed, eb, &w, {}).verdict, Verdict::kDiverged);
+  EXPECT_EQ(classify(failed, eb, &w, {}).verdict, studies::Verdict::kDiverged);
   // Stopped by a signal with its checkpoint kept: unfinished, not diverged.
   ReplicaResult interrupted = r;
   interrupted.status = "interrupted at t = 2285.46 by SIGTERM";
   const Classification unfinished = classify(interrupted, eb, &w, {});
-  EXPECT_EQ(unfinished.verdict, Verdict::kIncomplete);
+  EXPECT_EQ(unfinished.verdict, studies::Verdict::kIncomplete);
   EXPECT_NE(unfinished.reason.find("not finished"), std::string::npos);
   w.status = "failed at step 3: cell volume became -1";
-  EXPECT_EQ(classify(r, eb, &w, {}).verdict, Verdict::kDiverged);
+  EXPECT_EQ(classify(r, eb, &w, {}).verdict, studies::Verdict::kDiverged);
 }
 
 TEST(Diagnostics, CommensurateSampling) {
@@ -241,6 +241,6 @@ sample_every = 1
   EXPECT_FALSE(run_stage("test", "only", {req}, o, out, true).has_value());
   ASSERT_EQ(out.size(), 1u);
   const DiagnosedRun& d = out.front();
-  EXPECT_EQ(d.cls.verdict, Verdict::kNotAvailable);
+  EXPECT_EQ(d.cls.verdict, studies::Verdict::kNotAvailable);
   EXPECT_NE(d.verdict_text().find("not available"), std::string::npos);
 }
