@@ -225,6 +225,18 @@ State initial_state(const RunSpec& spec, std::uint64_t seed);
 // only when every replica is.
 void write_run_layout(H5Writer& w, const RunSpec& spec, const std::vector<ReplicaResult>& replicas);
 
+// The /summary attributes of replica r, in the order the run file writes them: its summary
+// values, verdicts and texts, N, alpha, the ensemble's attributes, the integrator and its
+// counters, the CPU and wall seconds, the status. With `summary` (replicas_summary() of a
+// multi-replica run, for the top level), that one's values, verdicts, counters and times.
+// The Python module's RunResult.summary is this list.
+Attributes summary_attributes(const RunSpec& spec, const ReplicaResult& r,
+                              const ReplicaResult* summary = nullptr);
+// The top-level summary of several replicas: combine_replicas() of theirs plus
+// wall_seconds_total and cpu_seconds_total; the integrator counters and the wall and CPU
+// seconds are the first replica's.
+ReplicaResult replicas_summary(const std::vector<ReplicaResult>& replicas);
+
 // write_run_layout() into `path` (through a temporary file renamed when complete). Returns
 // false if any replica is not finished (finished_status()): then the file is written as
 // <path>.part instead.

@@ -93,28 +93,58 @@ void write_replica(H5Writer& w, const RunSpec& spec, const ReplicaResult& r,
 
   const std::string sm = prefix + "/summary";
   w.group(sm);
-  const ReplicaResult& src = summary ? *summary : r;
-  for (const auto& [k, v] : src.summary.values)
-    w.attr(sm, k, v);
-  for (const auto& [k, v] : src.summary.verdicts)
-    w.attr(sm, "verdict_" + k, v.text());
-  for (const auto& [k, v] : r.summary.texts)
-    w.attr(sm, k, v);
-  w.attr(sm, "N", static_cast<std::int64_t>(n));
-  w.attr(sm, "alpha", spec.alpha);
-  spec.ensemble->describe(w, sm);
-  w.attr(sm, "integrator", spec.integrator.kind);
-  for (const auto& [k, v] : src.integrator_stats)
-    w.attr(sm, "integrator_" + k, v);
-  w.attr(sm, "wall_seconds", src.wall_seconds);
-  w.attr(sm, "cpu_seconds", src.cpu_seconds);
-  if (src.cpu_from_wall)
-    w.attr(sm, "cpu_seconds_note",
-           "includes wall seconds: continued from a checkpoint that recorded no CPU time");
-  w.attr(sm, "status", src.status);
+  w.attrs(sm, summary_attributes(spec, r, summary));
 }
 
 }  // namespace
+
+Attributes summary_attributes(const RunSpec& spec, const ReplicaResult& r,
+                              const ReplicaResult* summary) {
+  Attributes out;
+  const ReplicaResult& src = summary ? *summary : r;
+  for (const auto& [k, v] : src.summary.values)
+    out.emplace_back(k, v);
+  for (const auto& [k, v] : src.summary.verdicts)
+    out.emplace_back("verdict_" + k, v.text());
+  for (const auto& [k, v] : r.summary.texts)
+    out.emplace_back(k, v);
+  out.emplace_back("N", static_cast<std::int64_t>(r.final_state.size()));
+  out.emplace_back("alpha", spec.alpha);
+  spec.ensemble->describe(out);
+  out.emplace_back("integrator", spec.integrator.kind);
+  for (const auto& [k, v] : src.integrator_stats)
+    out.emplace_back("integrator_" + k, v);
+  out.emplace_back("wall_seconds", src.wall_seconds);
+  out.emplace_back("cpu_seconds", src.cpu_seconds);
+  if (src.cpu_from_wall)
+    out.emplace_back(
+        "cpu_seconds_note",
+        "includes wall seconds: continued from a checkpoint that recorded no CPU time");
+  out.emplace_back("status", src.status);
+  return out;
+}
+
+ReplicaResult replicas_summary(const std::vector<ReplicaResult>& replicas) {
+  // Counters need not be additive (CVODE's atol, say): the first replica's; the times summed
+  // as totals beside them.
+  ReplicaResult all;
+  all.integrator_stats = replicas.front().integrator_stats;
+  all.wall_seconds = replicas.front().wall_seconds;
+  all.cpu_seconds = replicas.front().cpu_seconds;
+  all.status = replicas.front().status;
+  std::vector<Summary> sums;
+  double wall = 0.0, cpu = 0.0;
+  for (const auto& r : replicas) {
+    sums.push_back(r.summary);
+    wall += r.wall_seconds;
+    cpu += r.cpu_seconds;
+    all.cpu_from_wall = all.cpu_from_wall || r.cpu_from_wall;
+  }
+  all.summary = combine_replicas(sums);
+  all.summary.values["wall_seconds_total"] = wall;
+  all.summary.values["cpu_seconds_total"] = cpu;
+  return all;
+}
 
 void write_run_layout(H5Writer& w, const RunSpec& spec,
                       const std::vector<ReplicaResult>& replicas) {
@@ -145,24 +175,8 @@ void write_run_layout(H5Writer& w, const RunSpec& spec,
   if (replicas.empty())
     return;
   if (replicas.size() > 1 && status == "complete") {
-    // Top level: the first replica's series, final state, integrator counters and wall time
-    // (counters need not be additive, e.g. CVODE's atol), the summary of all replicas.
-    ReplicaResult all;
-    all.integrator_stats = replicas.front().integrator_stats;
-    all.wall_seconds = replicas.front().wall_seconds;
-    all.cpu_seconds = replicas.front().cpu_seconds;
-    all.status = replicas.front().status;
-    std::vector<Summary> sums;
-    double wall = 0.0, cpu = 0.0;
-    for (const auto& r : replicas) {
-      sums.push_back(r.summary);
-      wall += r.wall_seconds;
-      cpu += r.cpu_seconds;
-      all.cpu_from_wall = all.cpu_from_wall || r.cpu_from_wall;
-    }
-    all.summary = combine_replicas(sums);
-    all.summary.values["wall_seconds_total"] = wall;
-    all.summary.values["cpu_seconds_total"] = cpu;
+    // Top level: the first replica's series and final state, the summary of all replicas.
+    const ReplicaResult all = replicas_summary(replicas);
     write_replica(w, spec, replicas.front(), "", &all);
   } else {
     write_replica(w, spec, replicas.front(), "");

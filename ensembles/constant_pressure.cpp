@@ -3,7 +3,6 @@
 
 #include "ensembles/registry.hpp"
 #include "lib/error.hpp"
-#include "lib/h5.hpp"
 
 namespace jamflow {
 
@@ -15,10 +14,10 @@ ConstantPressure::ConstantPressure(double shear_rate, double pressure, double xi
     throw ConfigError("[ensemble] xi_V = " + fmt(xi_v) + "; allowed > 0");
 }
 
-void ConstantPressure::describe(H5Writer& out, const std::string& object) const {
-  Ensemble::describe(out, object);
-  out.attr(object, "imposed_pressure", pressure_);
-  out.attr(object, "xi_V", xi_v_);
+void ConstantPressure::describe(Attributes& out) const {
+  Ensemble::describe(out);
+  out.emplace_back("imposed_pressure", pressure_);
+  out.emplace_back("xi_V", xi_v_);
 }
 
 std::unique_ptr<Ensemble> make_constant_pressure(ConfigSection& section, double shear_rate) {

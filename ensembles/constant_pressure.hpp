@@ -23,7 +23,7 @@ class ConstantPressure final : public Ensemble {
   }
   double piston_friction() const override { return xi_v_; }
   std::optional<double> imposed_pressure() const override { return pressure_; }
-  void describe(H5Writer& out, const std::string& object) const override;
+  void describe(Attributes& out) const override;
 
   double pressure() const { return pressure_; }
 

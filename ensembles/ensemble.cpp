@@ -3,8 +3,6 @@
 
 #include <cmath>
 
-#include "lib/h5.hpp"
-
 namespace jamflow {
 
 double Ensemble::volume_rate_slope(double p_hat) const {
@@ -19,9 +17,9 @@ double Ensemble::volume_rate_slope(double p_hat) const {
   return (volume_rate(p_hat + dp) - volume_rate(p_hat - dp)) / (2.0 * dp);
 }
 
-void Ensemble::describe(H5Writer& out, const std::string& object) const {
-  out.attr(object, "ensemble", name());
-  out.attr(object, "shear_rate", shear_rate());
+void Ensemble::describe(Attributes& out) const {
+  out.emplace_back("ensemble", name());
+  out.emplace_back("shear_rate", shear_rate());
 }
 
 }  // namespace jamflow

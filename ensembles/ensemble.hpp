@@ -5,12 +5,11 @@
 #include <optional>
 #include <string>
 
+#include "lib/attributes.hpp"
 #include "lib/config.hpp"
 #include "lib/model.hpp"
 
 namespace jamflow {
-
-class H5Writer;
 
 class Ensemble {
  public:
@@ -38,8 +37,8 @@ class Ensemble {
   // The pressure that defines mu and J: the imposed one, or none (then the measured P_hat).
   virtual std::optional<double> imposed_pressure() const { return std::nullopt; }
 
-  // Ensemble-specific attributes for the output summary.
-  virtual void describe(H5Writer& out, const std::string& object) const;
+  // Ensemble-specific attributes of the output summary, appended to `out`.
+  virtual void describe(Attributes& out) const;
 
  protected:
   explicit Ensemble(double shear_rate) : shear_rate_(shear_rate) {}

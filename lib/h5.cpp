@@ -10,6 +10,7 @@
 #include <cstring>
 #include <stdexcept>
 #include <utility>
+#include <variant>
 
 #include "lib/error.hpp"
 
@@ -412,6 +413,11 @@ void H5Writer::attr(const std::string& object, const std::string& name, const st
   const Handle type = utf8_string_type(part_path());
   const char* c_str = value.c_str();
   write_attr(file_, part_path(), object, name, type.get(), type.get(), &c_str);
+}
+
+void H5Writer::attrs(const std::string& object, const Attributes& list) {
+  for (const auto& [name, value] : list)
+    std::visit([&, &name = name](const auto& v) { attr(object, name, v); }, value);
 }
 
 void H5Writer::commit() {

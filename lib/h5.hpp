@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "lib/attributes.hpp"
+
 namespace jamflow {
 
 // Once per process before HDF5's first use (H5Writer and H5Reader call it): no automatic error
@@ -44,6 +46,7 @@ class H5Writer {
   void attr(const std::string& object, const std::string& name, const char* value) {
     attr(object, name, std::string(value));
   }
+  void attrs(const std::string& object, const Attributes& list);
 
   // Write the file (it is built in memory) to the temporary file, flush it to disk (fsync) and
   // atomically rename it to <path>.

@@ -29,6 +29,7 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <variant>
 #include <vector>
 
 #include "analysis/analyze_cli.hpp"
@@ -407,28 +408,12 @@ py::dict timeseries_dict(const jamflow::RunSpec& spec, const jamflow::Series& s)
   return d;
 }
 
-// The /summary attributes of the run file, as a dict.
-py::dict summary_dict(const jamflow::RunSpec& spec, const jamflow::Summary& sum,
-                      const jamflow::ReplicaResult& r) {
+// The /summary attributes of the run file (jamflow::summary_attributes), as a dict.
+py::dict summary_dict(const jamflow::RunSpec& spec, const jamflow::ReplicaResult& r,
+                      const jamflow::ReplicaResult* summary = nullptr) {
   py::dict d;
-  for (const auto& [k, v] : sum.values)
-    d[py::str(k)] = v;
-  for (const auto& [k, v] : sum.verdicts)
-    d[py::str("verdict_" + k)] = v.text();
-  for (const auto& [k, v] : r.summary.texts)
-    d[py::str(k)] = v;
-  d["N"] = py::int_(r.final_state.size());
-  d["alpha"] = spec.alpha;
-  d["ensemble"] = spec.ensemble->name();
-  d["shear_rate"] = spec.shear_rate;
-  if (const auto p = spec.ensemble->imposed_pressure())
-    d["pressure_imposed"] = *p;
-  d["integrator"] = spec.integrator.kind;
-  for (const auto& [k, v] : r.integrator_stats)
-    d[py::str("integrator_" + k)] = v;
-  d["wall_seconds"] = r.wall_seconds;
-  d["cpu_seconds"] = r.cpu_seconds;
-  d["status"] = r.status;
+  for (const auto& [k, v] : jamflow::summary_attributes(spec, r, summary))
+    std::visit([&d, &k = k](const auto& x) { d[py::str(k)] = x; }, v);
   return d;
 }
 
@@ -442,7 +427,7 @@ struct RunResult {
 
 RunResult replica_result(const jamflow::RunSpec& spec, const jamflow::ReplicaResult& r) {
   RunResult out;
-  out.summary = summary_dict(spec, r.summary, r);
+  out.summary = summary_dict(spec, r);
   out.timeseries = timeseries_dict(spec, r.series);
   out.final_ = configuration_dict(jamflow::configuration_of(r.final_state));
   for (const auto& w : r.summary.warnings)
@@ -488,18 +473,12 @@ RunResult run(py::handle scene_source, py::object out, bool force, py::object pr
   const auto& reps = outcome.replicas;
   RunResult result = replica_result(spec, reps.front());
   if (reps.size() > 1) {
-    jamflow::Summary all = jamflow::combined_summary(reps);
-    result.summary = summary_dict(spec, all, reps.front());
-    double wall = 0.0, cpu = 0.0;
-    for (const auto& r : reps) {
-      wall += r.wall_seconds;
-      cpu += r.cpu_seconds;
+    const jamflow::ReplicaResult all = jamflow::replicas_summary(reps);
+    result.summary = summary_dict(spec, reps.front(), &all);
+    for (const auto& r : reps)
       result.replicas.append(py::cast(replica_result(spec, r)));
-    }
-    result.summary["wall_seconds_total"] = wall;
-    result.summary["cpu_seconds_total"] = cpu;
     result.warnings = py::list();
-    for (const auto& w : all.warnings)
+    for (const auto& w : all.summary.warnings)
       result.warnings.append(w);
   }
   if (output.write)

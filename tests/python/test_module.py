@@ -153,8 +153,10 @@ def test_run_equals_the_command_line_bit_for_bit(tmp_path):
         for name in ("positions", "diameters", "species", "cell"):
             assert same_bits(result.final[name], f["final"][name][()]), name
         assert result.final["strain"] == f["final"].attrs["strain"]
+        # RunResult.summary is the file's /summary: the same keys, exactly.
+        assert sorted(result.summary) == sorted(f["summary"].attrs)
         for name, value in f["summary"].attrs.items():
-            if name in ("wall_seconds", "cpu_seconds") or name not in result.summary:
+            if name in ("wall_seconds", "cpu_seconds"):
                 continue
             mine = result.summary[name]
             if isinstance(mine, str):
@@ -177,10 +179,18 @@ def test_run_equals_the_command_line_bit_for_bit(tmp_path):
     jamflow.run(SMALL, out=tmp_path / "py.h5", force=True)
 
 
-def test_run_with_replicas():
-    scene = jamflow.Scene(SMALL)
+def test_run_with_replicas(tmp_path):
+    # At constant pressure, whose summary has the ensemble's own keys.
+    scene = jamflow.Scene(SMALL_TEXT.replace('kind = "constant_volume"',
+                                             'kind = "constant_pressure"\npressure = 1e-2'))
     scene.set("run.replicas", 2)
-    result = jamflow.run(scene)
+    result = jamflow.run(scene, out=tmp_path / "two.h5")
+    with h5py.File(tmp_path / "two.h5") as f:
+        assert sorted(result.summary) == sorted(f["summary"].attrs)
+        for k in range(2):
+            assert sorted(result.replicas[k].summary) == sorted(f[f"replicas/{k}/summary"].attrs)
+        for name in ("imposed_pressure", "xi_V", "cpu_seconds_total", "eta_replica_err"):
+            assert result.summary[name] == f["summary"].attrs[name], name
     assert len(result.replicas) == 2
     assert result.replicas[0].seed == 3 and result.replicas[1].seed == 4
     assert result.summary["replicas"] == 2
