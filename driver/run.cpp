@@ -6,6 +6,7 @@
 
 #include <time.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -509,18 +510,43 @@ RunOutcome run_replicas(const RunSpec& spec, const RunOptions& options,
     RunOptions o = options;
     o.label = stem + replica_suffix(k, count);
     o.checkpoint_every = spec.checkpoint_every;
+    // A checkpoint that cannot be written (a full disk) does not end the run: the previous one
+    // stays in OUT.part, and the final write (or, for a stopped run, the .part) comes at the
+    // end. Refused checkpoints are retried at intervals that double from checkpoint_every up to
+    // ten minutes, and said once, with a count when the replica ends: a disk that stays full
+    // cost a whole file's write, and a warning line, at every checkpoint_every.
+    struct Refused {
+      int count = 0;
+      double wait = 0.0;
+      std::chrono::steady_clock::time_point next{};
+    } refused;
     if (output.write)
       o.checkpoint = [&, k](const ReplicaResult& current) {
-        // A checkpoint that cannot be written (a full disk) does not end the run: the previous
-        // one stays in OUT.part, and the final write comes at the end.
+        const auto now = std::chrono::steady_clock::now();
+        if (refused.count > 0 && now < refused.next)
+          return;
         try {
           write_part(k, current);
+          if (refused.count > 0)
+            std::fprintf(stderr, "jamflow: checkpoint written again, after %d refused\n",
+                         refused.count);
+          refused = {};
         } catch (const IoError& e) {
-          std::fprintf(stderr, "jamflow: warning: checkpoint not written: %s; the run goes on\n",
-                       e.what());
+          if (refused.count == 0)
+            std::fprintf(stderr,
+                         "jamflow: warning: checkpoint not written: %s; the run goes on "
+                         "(retried at growing intervals)\n",
+                         e.what());
+          ++refused.count;
+          refused.wait = std::min(std::max(2.0 * refused.wait, spec.checkpoint_every), 600.0);
+          refused.next = now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                   std::chrono::duration<double>(refused.wait));
         }
       };
     ReplicaResult r = run_replica(spec, spec.seed + k, o, from);
+    if (refused.count > 1)
+      std::fprintf(stderr, "jamflow: warning: %d checkpoints of %s not written\n", refused.count,
+                   o.label.c_str());
     if (k < results.size())
       results[k] = std::move(r);
     else

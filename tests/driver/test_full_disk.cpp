@@ -41,6 +41,13 @@ std::string scene(const std::string& file) {
          file + "\"\ncheckpoint_every = 0.02\n";
 }
 
+std::size_t occurrences(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1))
+    ++n;
+  return n;
+}
+
 struct Ended {
   int exit_status = -1;  // -1: killed by a signal
   int signal = 0;
@@ -137,6 +144,8 @@ TEST(FullDisk, FinalWriteFailsCleanlyAndTheRunIsWrittenElsewhere) {
   EXPECT_EQ(e.exit_status, 1) << e.err;
   // A checkpoint that did not fit was a warning; the run went on and printed its summary.
   EXPECT_NE(e.err.find("warning: checkpoint not written"), std::string::npos) << e.err;
+  // Said once, however many are refused (they are retried at growing intervals).
+  EXPECT_EQ(occurrences(e.err, "checkpoint not written:"), 1u) << e.err;
   EXPECT_NE(e.out.find("eta"), std::string::npos) << e.out;
   // The error names the place the finished run went to.
   const std::string marker = "the finished run is written to ";
@@ -170,6 +179,7 @@ TEST(FullDisk, FileSizeLimitEndsCleanlyAndSaysWhatIsKept) {
   EXPECT_EQ(e.signal, 0) << e.err;
   EXPECT_EQ(e.exit_status, 1) << e.err;
   EXPECT_NE(e.out.find("eta"), std::string::npos) << e.out;
+  EXPECT_LE(occurrences(e.err, "checkpoint not written:"), 1u) << e.err;
   EXPECT_NE(e.err.find("could not be written elsewhere either, and only " + out +
                        ".part is kept: the last checkpoint"),
             std::string::npos)
