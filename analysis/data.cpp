@@ -697,6 +697,12 @@ std::string failure(const std::string& path, const std::string& why) {
   // A crash is reported by the parent; a core dump of libhdf5 would only take time and space.
   const rlimit no_core{0, 0};
   ::setrlimit(RLIMIT_CORE, &no_core);
+  // The reader speaks through the pipe only: what a crashing libhdf5 prints (in a sanitizer
+  // build, the sanitizer's report of its bad read, 36 lines) is not the user's one-line error.
+  if (const int null = ::open("/dev/null", O_WRONLY | O_CLOEXEC); null >= 0) {
+    ::dup2(null, STDERR_FILENO);
+    ::close(null);
+  }
   std::string out;
   try {
     try {

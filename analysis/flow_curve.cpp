@@ -186,7 +186,11 @@ FlowCurveResult analyze_flow_curves(const std::vector<ShearPoint>& points,
   FitOptions fo;
   fo.scale_errors_by_chi2 = options.scale_errors;
 
-  for (auto& [set, pts] : sets) {
+  for (auto& entry : sets) {
+    // Named references, not a structured binding: clang before 16 cannot capture a binding in
+    // the lambdas below (the fuzz build is clang's).
+    const auto& set = entry.first;
+    auto& pts = entry.second;
     std::sort(pts.begin(), pts.end(),
               [](const ShearPoint& a, const ShearPoint& b) { return a.shear_rate < b.shear_rate; });
     FlowCurve c;
