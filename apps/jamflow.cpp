@@ -116,7 +116,7 @@ int run_command(const std::vector<std::string>& args) {
       opened.reset();
       const jamflow::RunFile file = jamflow::read_run_file(from, false);
       for (std::size_t k = 0; k < output.continue_from->size() && k < file.replicas.size(); ++k)
-        if ((*output.continue_from)[k].status == "complete")
+        if ((*output.continue_from)[k].status.is_complete())
           (*output.continue_from)[k].summary = file.replicas[k].summary;
     } catch (const jamflow::IoError& e) {
       throw jamflow::ConfigError(std::string(extend ? "--extend" : "--resume") + " '" + from +

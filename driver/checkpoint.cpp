@@ -182,7 +182,7 @@ void write_checkpoint(H5Writer& w, const RunSpec& spec,
     for (const auto& [name, field] : kFields)
       w.dataset(g + "/series/" + name, res.series.column(field));
     w.attr(g, "seed", static_cast<std::int64_t>(res.seed));
-    w.attr(g, "status", res.status);
+    w.attr(g, "status", res.status.text());
     w.attr(g, "wall_seconds", res.wall_seconds);
     w.attr(g, "cpu_seconds", res.cpu_seconds);
     w.attr(g, "cpu_from_wall", std::int64_t(res.cpu_from_wall));
@@ -237,7 +237,7 @@ std::vector<ReplicaResult> read_checkpoint(const H5Reader& r) {
       for (std::size_t s = 0; s < columns[c].size(); ++s)
         res.series.samples[s].*(kFields[c].second) = columns[c][s];
     res.seed = static_cast<std::uint64_t>(r.attr_int(g, "seed"));
-    res.status = r.attr_string(g, "status");
+    res.status = RunStatus::parse(r.attr_string(g, "status"));
     res.wall_seconds = r.attr_double(g, "wall_seconds");
     // A checkpoint written before CPU time was recorded: its wall seconds stand in.
     res.cpu_from_wall = !r.has_attr(g, "cpu_seconds") ||
@@ -310,7 +310,8 @@ RunFile read_run_file(const std::string& path, bool everything) {
   const H5Reader r(path);
   RunFile f;
   f.scene = r.has_attr("/", "scene") ? r.attr_string("/", "scene") : "";
-  f.status = r.has_attr("/", "status") ? r.attr_string("/", "status") : "";
+  f.status = r.has_attr("/", "status") ? RunStatus::parse(r.attr_string("/", "status"))
+                                       : RunStatus::unreadable("no status attribute");
   const std::int64_t count = r.has_attr("/", "replicas") ? r.attr_int("/", "replicas") : 1;
   if (everything) {
     f.replicas = read_checkpoint(r);
@@ -326,7 +327,8 @@ RunFile read_run_file(const std::string& path, bool everything) {
     ReplicaResult& res = f.replicas[k];
     res.summary = read_summary(r, g);
     if (!everything) {
-      res.status = r.has_attr(g, "status") ? r.attr_string(g, "status") : f.status;
+      res.status =
+          r.has_attr(g, "status") ? RunStatus::parse(r.attr_string(g, "status")) : f.status;
       if (r.has_attr(g, "wall_seconds"))
         res.wall_seconds = r.attr_double(g, "wall_seconds");
       // A file written before CPU time was recorded: its wall seconds stand in.
@@ -347,6 +349,16 @@ RunFile read_run_file(const std::string& path, bool everything) {
     }
   }
   return f;
+}
+
+RunStatus read_run_status(const std::string& path) {
+  try {
+    const H5Reader r(path);
+    return r.has_attr("/", "status") ? RunStatus::parse(r.attr_string("/", "status"))
+                                     : RunStatus::unreadable("no status attribute");
+  } catch (const std::exception& e) {
+    return RunStatus::unreadable(e.what());
+  }
 }
 
 void check_checkpoint_matches(const H5Reader& r, const std::vector<ReplicaResult>& replicas,
@@ -406,7 +418,7 @@ void check_checkpoint_matches(const H5Reader& r, const std::vector<ReplicaResult
 bool replica_finished(const RunSpec& spec, const ReplicaResult& r) {
   const auto k_max =
       static_cast<std::size_t>(std::floor((spec.t_eq + spec.t_av) / spec.sample_every + 1e-9));
-  return r.status == "complete" &&
+  return r.status.is_complete() &&
          (spec.auto_eq || spec.auto_av || r.series.samples.size() > k_max);
 }
 

@@ -58,11 +58,15 @@ std::vector<ReplicaResult> read_checkpoint(const H5Reader& r);
 // its wall seconds in their place and ReplicaResult::cpu_from_wall set. An IoError names what is
 // missing.
 struct RunFile {
-  std::string scene;   // the root attribute "scene": the canonical scene text
-  std::string status;  // the root attribute "status"
+  std::string scene;  // the root attribute "scene": the canonical scene text
+  RunStatus status;   // the root attribute "status"
   std::vector<ReplicaResult> replicas;
 };
 RunFile read_run_file(const std::string& path, bool everything = true);
+
+// The root attribute "status" of a run file, or (never throwing) kUnreadable with why: a file
+// that cannot be opened, or has no status.
+RunStatus read_run_status(const std::string& path);
 
 // Whether a replica read from a checkpoint is finished for `spec`: complete, and either its
 // length was found from its data (t_eq or t_av "auto") or it holds every sample of t_eq + t_av.

@@ -267,7 +267,7 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   std::string traj_path;
   std::unique_ptr<H5mdTrajectory> h5md;
   const std::string h5md_path = options.label + ".traj.h5md";
-  if (from && from->status == "complete") {
+  if (from && from->status.is_complete()) {
     // Extending a finished run: its trajectories were completed (renamed); they go on as .part.
     for (const std::string& path : {options.label + ".traj.xyz", h5md_path}) {
       std::error_code ec;
@@ -338,8 +338,8 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
   auto checkpoint = [&] {
     if (!options.checkpoint)
       return;
-    const std::string status = res.status;
-    res.status = "running";
+    const RunStatus status = res.status;
+    res.status = RunStatus::running();
     fill(res);
     options.checkpoint(res);
     res.status = status;
@@ -353,8 +353,8 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
     if (watcher.take_timer() || asked || stop)
       checkpoint();
     if (stop) {
-      res.status = "interrupted at t = " + fmt(model.state().time - t_start) +
-                   (sig != 0 ? " by " + signal_name(sig) : std::string());
+      res.status = RunStatus::interrupted("at t = " + fmt(model.state().time - t_start) +
+                                          (sig != 0 ? " by " + signal_name(sig) : std::string()));
       res.signal = sig;
     }
     return stop;
@@ -395,11 +395,12 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
     budget.on_proceed = [&](long long) {
       if (spec.max_force_evaluations > 0 &&
           integ->force_pass_equivalents(model) >= double(spec.max_force_evaluations)) {
-        res.status = "budget: stopped at t = " + fmt(model.state().time - t_start) + " after " +
-                     fmt(integ->force_pass_equivalents(model)) + " force-pass equivalents (" +
-                     std::to_string(model.force_evaluations()) +
-                     " force evaluations; [run] max_force_evaluations = " +
-                     std::to_string(spec.max_force_evaluations) + ")";
+        res.status = RunStatus::budget("stopped at t = " + fmt(model.state().time - t_start) +
+                                       " after " + fmt(integ->force_pass_equivalents(model)) +
+                                       " force-pass equivalents (" +
+                                       std::to_string(model.force_evaluations()) +
+                                       " force evaluations; [run] max_force_evaluations = " +
+                                       std::to_string(spec.max_force_evaluations) + ")");
         return false;
       }
       return true;
@@ -428,32 +429,32 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
     control.on_attend = attend;
     sim.run(spec.sample_every, k_first, {&length, &budget, &sampler, &frames, &report, &control},
             &attention);
-    if (res.status == "complete")
+    if (res.status.is_complete())
       progress.finish(res.series.samples.back().time);
   } catch (const IntegrationError& e) {
-    res.status = "failed at t = " + fmt(model.state().time - t_start) + ": " + e.what();
+    res.status = RunStatus::failed("at t = " + fmt(model.state().time - t_start) + ": " + e.what());
   } catch (const ConfigError& e) {
     // The scene was valid when the run started; a state that has since left the range the
     // engine accepts (a piston that collapsed the box below the neighbour list's cell) is a
     // failure of the run, recorded in its .part like any other, not bad input.
     if (!(model.state().time > t_begin))
       throw;
-    res.status = "failed at t = " + fmt(model.state().time - t_start) +
-                 ": the state left the engine's range: " + e.what();
+    res.status = RunStatus::failed("at t = " + fmt(model.state().time - t_start) +
+                                   ": the state left the engine's range: " + e.what());
   }
   fill(res);
   res.integrator_stats.emplace_back("neighbour_list_builds", double(model.list_builds()));
   if (traj_xyz) {
     traj.close();
-    if (res.status == "complete")
+    if (res.status.is_complete())
       std::filesystem::rename(traj_path + ".part", traj_path);
   }
   if (h5md) {
     h5md->close();
-    if (res.status == "complete")
+    if (res.status.is_complete())
       std::filesystem::rename(h5md_path + ".part", h5md_path);
   }
-  if (res.status == "complete") {
+  if (res.status.is_complete()) {
     const StepPairs* steps = step_test ? &res.steps : nullptr;
     const Length len = decide_length(spec, res.series, steps);
     RunSpec eff = spec;
@@ -501,8 +502,8 @@ RunOutcome run_replicas(const RunSpec& spec, const RunOptions& options,
   };
   for (std::size_t k = 0; k < count; ++k) {
     const ReplicaResult* from = k < results.size() ? &results[k] : nullptr;
-    if (from && from->status.rfind("failed", 0) == 0) {
-      throw ConfigError("replica " + std::to_string(k) + " of this run " + from->status +
+    if (from && from->status.is_failed()) {
+      throw ConfigError("replica " + std::to_string(k) + " of this run " + from->status.text() +
                         "; a failed run cannot be continued");
     }
     if (from && replica_finished(spec, *from))
@@ -552,7 +553,7 @@ RunOutcome run_replicas(const RunSpec& spec, const RunOptions& options,
     else
       results.push_back(std::move(r));
     const ReplicaResult& last = results[k];
-    const bool ok = last.status == "complete";
+    const bool ok = last.status.is_complete();
     if (output.write) {
       try {
         write_xyz_file(o.label + (ok ? ".final.xyz" : ".last.xyz"), last.final_state);
@@ -565,23 +566,21 @@ RunOutcome run_replicas(const RunSpec& spec, const RunOptions& options,
         std::fprintf(stderr, "jamflow: warning: %s\n", e.what());
       }
     }
-    if (stopped_by_budget(last.status)) {
+    if (last.status.is_budget()) {
       // Finished without a summary: the file is final, the next replica goes on.
       if (output.write)
-        std::fprintf(stderr, "jamflow: %s: %s\n", o.label.c_str(), last.status.c_str());
+        std::fprintf(stderr, "jamflow: %s: %s\n", o.label.c_str(), last.status.text().c_str());
     } else if (!ok) {
       write_part(k, last);
       if (output.write) {
         // Only a stopped run can be continued; --resume refuses a failed one.
-        const bool resumable = last.status.rfind("interrupted", 0) == 0 || last.signal != 0;
+        const bool resumable = last.status.is_interrupted() || last.signal != 0;
         const std::string next = resumable ? " (continue it with --resume " + spec.file + ".part)"
                                            : std::string(" (a failed run cannot be continued)");
-        std::fprintf(stderr, "jamflow: %s; data kept in %s.part%s\n", last.status.c_str(),
+        std::fprintf(stderr, "jamflow: %s; data kept in %s.part%s\n", last.status.text().c_str(),
                      spec.file.c_str(), next.c_str());
       }
-      outcome.code = last.signal != 0                           ? 128 + last.signal
-                     : last.status.rfind("interrupted", 0) == 0 ? 130
-                                                                : 1;
+      outcome.code = last.signal != 0 ? 128 + last.signal : last.status.is_interrupted() ? 130 : 1;
       return outcome;
     }
     if (k + 1 < count)
@@ -609,7 +608,7 @@ int run_and_write(const RunSpec& spec, const RunOptions& options, const OutputOp
     return outcome.code;
   bool budget = false;
   for (const auto& r : outcome.replicas)
-    budget = budget || stopped_by_budget(r.status);
+    budget = budget || r.status.is_budget();
   // A replica stopped by the budget has no summary to print: the file says where it stopped.
   const bool failed_verdict = !budget && detail::print_summary(spec, outcome.replicas);
   if (budget)

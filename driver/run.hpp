@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "driver/run_status.hpp"
 #include "ensembles/ensemble.hpp"
 #include "integrators/integrator.hpp"
 #include "integrators/registry.hpp"
@@ -55,7 +56,7 @@ struct RunSpec {
   // (Integrator::force_pass_equivalents: the model's force passes, plus CVODE's Jacobian work
   // weighted by its cost against a force pass) reaches this; 0 = none (the default). Counted,
   // not timed, so a budget cuts a run at the same sample wherever it runs. The key keeps its
-  // name. See stopped_by_budget().
+  // name. See RunStatus::Kind::kBudget.
   std::int64_t max_force_evaluations = 0;
   // [output]
   std::string file = "jamflow.h5";
@@ -145,12 +146,6 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
 // are collected with the replica index.
 Summary combine_replicas(const std::vector<Summary>& summaries);
 
-// The status of a replica stopped by [run] max_force_evaluations starts with "budget": such a
-// replica is finished (its file is final, not a checkpoint to continue) but has no summary.
-bool stopped_by_budget(const std::string& status);
-// "complete" or stopped by the budget: nothing more will be computed for it.
-bool finished_status(const std::string& status);
-
 struct ReplicaResult {
   Series series;
   State final_state;
@@ -163,9 +158,9 @@ struct ReplicaResult {
   double cpu_seconds = 0.0;
   bool cpu_from_wall = false;
   std::uint64_t seed = 0;
-  // "complete", "running" (a checkpoint of a run that goes on), "interrupted at t = ...",
-  // "failed at t = ..." or "budget: stopped at t = ..." ([run] max_force_evaluations).
-  std::string status = "complete";
+  // A replica stopped by [run] max_force_evaluations (kBudget) is finished (its file is final,
+  // not a checkpoint to continue) but has no summary.
+  RunStatus status;
   // Provenance: the force backend, the instruction-set target it ran on, and the thread count.
   std::string kernel, kernel_target;
   int threads = 1;
@@ -238,7 +233,7 @@ Attributes summary_attributes(const RunSpec& spec, const ReplicaResult& r,
 ReplicaResult replicas_summary(const std::vector<ReplicaResult>& replicas);
 
 // write_run_layout() into `path` (through a temporary file renamed when complete). Returns
-// false if any replica is not finished (finished_status()): then the file is written as
+// false if any replica is not finished (RunStatus::is_finished()): then the file is written as
 // <path>.part instead.
 bool write_run_file(const RunSpec& spec, const std::vector<ReplicaResult>& replicas,
                     const std::string& path);

@@ -120,7 +120,7 @@ Attributes summary_attributes(const RunSpec& spec, const ReplicaResult& r,
     out.emplace_back(
         "cpu_seconds_note",
         "includes wall seconds: continued from a checkpoint that recorded no CPU time");
-  out.emplace_back("status", src.status);
+  out.emplace_back("status", src.status.text());
   return out;
 }
 
@@ -152,11 +152,11 @@ void write_run_layout(H5Writer& w, const RunSpec& spec,
   w.attr("/", "version", JAMFLOW_VERSION);
   w.attr("/", "git_commit", git_commit());
   w.attr("/", "created", iso_now());
-  std::string status = "complete";
+  RunStatus status;  // the first replica's that is not complete
   std::int64_t resumes = 0;
   std::string history;
   for (const auto& r : replicas) {
-    if (r.status != "complete" && status == "complete")
+    if (!r.status.is_complete() && status.is_complete())
       status = r.status;
     resumes += r.resumes;
     if (r.history != "none" && r.history != "kept")
@@ -171,10 +171,10 @@ void write_run_layout(H5Writer& w, const RunSpec& spec,
   }
   w.attr("/", "replicas", static_cast<std::int64_t>(replicas.size()));
   w.attr("/", "resumes", resumes);
-  w.attr("/", "status", status);
+  w.attr("/", "status", status.text());
   if (replicas.empty())
     return;
-  if (replicas.size() > 1 && status == "complete") {
+  if (replicas.size() > 1 && status.is_complete()) {
     // Top level: the first replica's series and final state, the summary of all replicas.
     const ReplicaResult all = replicas_summary(replicas);
     write_replica(w, spec, replicas.front(), "", &all);
@@ -193,7 +193,7 @@ bool write_run_file(const RunSpec& spec, const std::vector<ReplicaResult>& repli
                     const std::string& path) {
   bool complete = !replicas.empty();
   for (const auto& r : replicas)
-    complete = complete && finished_status(r.status);
+    complete = complete && r.status.is_finished();
   H5Writer w(complete ? path : path + ".part", ".tmp");
   write_run_layout(w, spec, replicas);
   w.commit();

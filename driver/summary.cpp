@@ -23,14 +23,6 @@ std::vector<double> Series::column(double Sample::*field) const {
   return v;
 }
 
-bool stopped_by_budget(const std::string& status) {
-  return status.rfind("budget", 0) == 0;
-}
-
-bool finished_status(const std::string& status) {
-  return status == "complete" || stopped_by_budget(status);
-}
-
 Verdict Verdict::parse(const std::string& text) {
   if (text == "pass")
     return pass();

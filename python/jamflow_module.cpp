@@ -432,7 +432,7 @@ RunResult replica_result(const jamflow::RunSpec& spec, const jamflow::ReplicaRes
   out.final_ = configuration_dict(jamflow::configuration_of(r.final_state));
   for (const auto& w : r.summary.warnings)
     out.warnings.append(w);
-  out.status = r.status;
+  out.status = r.status.text();
   out.scene = spec.scene_text;
   out.seed = r.seed;
   return out;
@@ -460,7 +460,8 @@ RunResult run(py::handle scene_source, py::object out, bool force, py::object pr
   run_released([&] { outcome = jamflow::run_replicas(spec, options, output); }, stop,
                [&] { relay.deliver(); });
   if (outcome.code != 0) {
-    const std::string status = outcome.replicas.empty() ? "" : outcome.replicas.back().status;
+    const std::string status =
+        outcome.replicas.empty() ? "" : outcome.replicas.back().status.text();
     if (outcome.code == 130) {  // stopped through `stop`
       PyErr_SetString(PyExc_KeyboardInterrupt, status.c_str());
       throw py::error_already_set();

@@ -262,7 +262,7 @@ WindowResult diagnostic_window(const RunSpec& spec, const State& start,
     recorder.at(0);
     sim.run(w.step, 1, {&recorder});
   } catch (const IntegrationError& e) {
-    w.status = std::string("failed at step ") + std::to_string(w.steps_done) + ": " + e.what();
+    w.status = RunStatus::failed("at step " + std::to_string(w.steps_done) + ": " + e.what());
   }
   w.finite = corr.finite();
   for (const auto* series : {&w.sigma_xy, &w.pressure, &w.dissipation})
@@ -318,21 +318,21 @@ std::string g3(double v) {
 Classification classify(const ReplicaResult& result, const EnergyBalance& balance,
                         const WindowResult* window, const Thresholds& th) {
   Classification c;
-  if (stopped_by_budget(result.status)) {
+  if (result.status.is_budget()) {
     c.verdict = Verdict::kIncomplete;
-    c.reason = result.status.substr(result.status.find(':') + 2) + ", the study's budget";
+    c.reason = result.status.detail + ", the study's budget";
     return c;
   }
   // Stopped by a signal with its checkpoint kept: not finished yet, which says nothing about
   // stability (the same command again continues it).
-  if (result.status.rfind("interrupted", 0) == 0) {
+  if (result.status.is_interrupted()) {
     c.verdict = Verdict::kIncomplete;
-    c.reason = "not finished: " + result.status + "; the same command again continues it";
+    c.reason = "not finished: " + result.status.text() + "; the same command again continues it";
     return c;
   }
-  if (result.status != "complete") {
+  if (!result.status.is_complete()) {
     c.verdict = Verdict::kDiverged;
-    c.reason = result.status;
+    c.reason = result.status.text();
     return c;
   }
   for (const Sample& s : result.series.samples) {
@@ -345,10 +345,10 @@ Classification classify(const ReplicaResult& result, const EnergyBalance& balanc
     }
   }
   if (window) {
-    if (window->status != "complete" || !window->finite) {
+    if (!window->status.is_complete() || !window->finite) {
       c.verdict = Verdict::kDiverged;
-      c.reason = "diagnostic window " +
-                 (window->status != "complete" ? window->status : std::string("non-finite"));
+      c.reason = "diagnostic window " + (!window->status.is_complete() ? window->status.text()
+                                                                       : std::string("non-finite"));
       return c;
     }
     c.laned = window->lane_order >= th.lane_order_min;
@@ -552,11 +552,11 @@ DiagnosedRun diagnose_file(const std::string& label, const RunSpec& spec, const 
   if (f.replicas.empty())
     throw IoError("'" + file + "' holds no replica");
   d.result = std::move(f.replicas.front());
-  if (d.result.status == "running") {
+  if (d.result.status.kind == RunStatus::Kind::kRunning) {
     // The process stopped without a status of its own (an error other than a failed
     // integration, e.g. a box that collapsed below the cell size): its log says why.
     const std::string log = file.substr(0, file.find(".h5")) + ".log";
-    d.result.status = "aborted: " + last_line(log);
+    d.result.status = RunStatus::aborted(last_line(log));
   }
   // The run's CPU seconds (an older file's wall seconds: result.cpu_from_wall), and its cost in
   // force-pass equivalents (CVODE's Jacobian work included; an older file's force evaluations).
@@ -564,7 +564,7 @@ DiagnosedRun diagnose_file(const std::string& label, const RunSpec& spec, const 
   const double passes = statistic(d.result.integrator_stats, "force_evaluations");
   d.particle_steps =
       statistic(d.result.integrator_stats, "force_pass_equivalents", passes) * double(d.n);
-  const bool ok = d.result.status == "complete";
+  const bool ok = d.result.status.is_complete();
   if (ok) {
     d.balance =
         energy_balance(d.result.series.samples, spec.t_eq, spec.shear_rate,
@@ -577,7 +577,7 @@ DiagnosedRun diagnose_file(const std::string& label, const RunSpec& spec, const 
     try {
       d.window = diagnostic_window(spec, d.result.final_state, request.window_options);
     } catch (const std::exception& e) {
-      d.window.status = std::string("aborted: ") + e.what();
+      d.window.status = RunStatus::aborted(e.what());
     }
   }
   d.cls = classify(d.result, d.balance, ok && request.window ? &d.window : nullptr, thresholds);
@@ -622,7 +622,7 @@ std::optional<int> run_stage(const std::string& study, const std::string& stage,
       d.unavailable = e.what();
       d.cls.verdict = Verdict::kNotAvailable;
       d.cls.reason = e.what();
-      d.result.status = "not run";
+      d.result.status = RunStatus::not_run();
     }
   }
   if (scenes.empty())
@@ -639,7 +639,7 @@ std::optional<int> run_stage(const std::string& study, const std::string& stage,
     for (std::size_t k = 0; k < requests.size(); ++k) {
       if (point_of[k] == SIZE_MAX)
         continue;
-      out[k].result.status = "complete";
+      out[k].result.status = RunStatus::complete();
       out[k].final_xyz = kCountedStart;
     }
     return std::nullopt;
@@ -651,8 +651,7 @@ std::optional<int> run_stage(const std::string& study, const std::string& stage,
     const sweep::Task task{p.index, 0, requests[k].seed, p.cost};
     const RunSpec spec = parse_run_spec(sw.plan.task_scene(task));
     const std::string file = sw.plan.task_file(task);
-    std::string detail;
-    const sweep::TaskState state = sweep::probe(sw.plan, task, &detail);
+    const sweep::TaskState state = sweep::probe(sw.plan, task);
     DiagnosedRun& d = out[k];
     if (state == sweep::TaskState::kDone) {
       d = diagnose_file(requests[k].label, spec, file, requests[k], thresholds);
@@ -661,7 +660,7 @@ std::optional<int> run_stage(const std::string& study, const std::string& stage,
     } else {
       d.cls.verdict = Verdict::kDiverged;
       d.cls.reason = "no output: " + last_line(sw.plan.task_log(task));
-      d.result.status = "failed: " + d.cls.reason;
+      d.result.status = RunStatus::aborted(d.cls.reason);
     }
     if (!options.quiet)
       std::printf("  %-44s %8.3g particle-steps  %s\n", d.label.c_str(), d.particle_steps,
@@ -681,7 +680,7 @@ void write_diagnosed(H5Writer& out, const std::string& group, const DiagnosedRun
   out.attr(group, "reason", r.cls.reason);
   out.attr(group, "laned", static_cast<std::int64_t>(r.cls.laned));
   out.attr(group, "correlated", static_cast<std::int64_t>(r.cls.correlated));
-  out.attr(group, "status", r.result.status);
+  out.attr(group, "status", r.result.status.text());
   out.attr(group, "scene", r.scene_text);
   out.attr(group, "dt", r.dt);
   out.attr(group, "N", r.n);
@@ -702,7 +701,7 @@ void write_diagnosed(H5Writer& out, const std::string& group, const DiagnosedRun
   out.attr(group, "balance_drift", r.balance.drift);
   out.attr(group, "balance_raw_ratio", r.balance.raw_ratio);
   const WindowResult& w = r.window;
-  out.attr(group, "window_status", w.status);
+  out.attr(group, "window_status", w.status.text());
   out.attr(group, "window_step", w.step);
   out.attr(group, "window_steps", static_cast<std::int64_t>(w.steps_done));
   out.attr(group, "force_correlation", w.force_correlation);

@@ -86,9 +86,9 @@ struct WindowOptions {
 };
 
 struct WindowResult {
-  std::string status = "complete";  // or the IntegrationError message
-  double step = 0.0;                // sampling interval (the integrator's nominal dt)
-  bool adaptive = false;            // no nominal dt (CVODE): no step-to-step oscillation
+  RunStatus status;       // or failed, with the IntegrationError message
+  double step = 0.0;      // sampling interval (the integrator's nominal dt)
+  bool adaptive = false;  // no nominal dt (CVODE): no step-to-step oscillation
   std::size_t steps_done = 0;
   double force_correlation = 1.0;  // StepCorrelation::correlation
   double alternating_share = 0.0;
@@ -201,7 +201,7 @@ struct DiagnosedRun {
   std::string final_xyz;    // its final state (r0.final.xyz) when complete: a later stage's init
 
   bool complete() const {
-    return cls.verdict != Verdict::kNotAvailable && result.status == "complete";
+    return cls.verdict != Verdict::kNotAvailable && result.status.is_complete();
   }
   double value(const std::string& key) const;  // summary value, NaN if absent
   // "stable", "oscillating (reason)", "diverged (t = ..., message)", "not available (...)",

@@ -104,9 +104,10 @@ Collected collect(const Plan& plan, const std::string& path) {
     bool cpu_from_wall = false;
     std::string why;
     for (const Task* t : ts) {
-      std::string detail;
-      const TaskState s = probe(plan, *t, &detail);
-      if (s != TaskState::kDone || detail != "complete") {
+      RunStatus status = RunStatus::not_run();
+      const TaskState s = probe(plan, *t, &status);
+      const std::string detail = status.kind == RunStatus::Kind::kNotRun ? "" : status.text();
+      if (s != TaskState::kDone || !status.is_complete()) {
         why = std::string("r")
                   .append(std::to_string(t->replica))
                   .append(" ")

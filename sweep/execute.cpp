@@ -19,9 +19,9 @@
 #include <sstream>
 #include <thread>
 
+#include "driver/checkpoint.hpp"
 #include "driver/run.hpp"
 #include "lib/error.hpp"
-#include "lib/h5.hpp"
 #include "lib/progress.hpp"
 #include "lib/text_file.hpp"
 
@@ -45,15 +45,6 @@ std::string read_text(const std::string& path) {
 
 }  // namespace
 
-std::string status_of(const std::string& file) {
-  try {
-    H5Reader r(file);
-    return r.has_attr("/", "status") ? r.attr_string("/", "status") : "";
-  } catch (const std::exception& e) {
-    return std::string("unreadable: ") + e.what();
-  }
-}
-
 const char* state_name(TaskState s) {
   switch (s) {
     case TaskState::kWaiting:
@@ -72,22 +63,22 @@ const char* state_name(TaskState s) {
   return "?";
 }
 
-TaskState probe(const Plan& plan, const Task& task, std::string* detail) {
+TaskState probe(const Plan& plan, const Task& task, RunStatus* out) {
   const std::string file = plan.task_file(task);
   std::error_code ec;
   if (fs::exists(file, ec)) {
-    const std::string status = status_of(file);
-    if (detail)
-      *detail = status;
+    const RunStatus status = read_run_status(file);
+    if (out)
+      *out = status;
     // A run stopped by its [run] max_force_evaluations is finished too: rerunning it would
     // stop at the same sample (collect leaves it out of the table, saying why).
-    return finished_status(status) ? TaskState::kDone : TaskState::kFailed;
+    return status.is_finished() ? TaskState::kDone : TaskState::kFailed;
   }
   if (fs::exists(file + ".part", ec)) {
-    const std::string status = status_of(file + ".part");
-    if (detail)
-      *detail = status;
-    if (status.rfind("failed", 0) == 0 || status.rfind("unreadable", 0) == 0)
+    const RunStatus status = read_run_status(file + ".part");
+    if (out)
+      *out = status;
+    if (status.is_failed() || status.kind == RunStatus::Kind::kUnreadable)
       return TaskState::kFailed;
     return TaskState::kCheckpointed;
   }
@@ -149,7 +140,10 @@ Coordinator::Coordinator(const Plan& plan, std::vector<std::size_t> share, int s
   for (auto i : share)
     mine[i] = true;
   for (std::size_t i = 0; i < tasks_.size(); ++i) {
-    state_[i] = probe(plan_, tasks_[i], &why_[i]);
+    RunStatus status = RunStatus::not_run();
+    state_[i] = probe(plan_, tasks_[i], &status);
+    if (status.kind != RunStatus::Kind::kNotRun)
+      why_[i] = status.text();
     if (!mine[i])
       continue;
     if (state_[i] == TaskState::kDone) {
@@ -319,12 +313,12 @@ void Coordinator::write_manifest() {
     const TaskState s = state_[i];
     if (s == TaskState::kRunning || s == TaskState::kDone || s == TaskState::kFailed)
       continue;
-    std::string detail;
-    const TaskState now = probe(plan_, tasks_[i], &detail);
+    RunStatus status = RunStatus::not_run();
+    const TaskState now = probe(plan_, tasks_[i], &status);
     if (s == TaskState::kBusyElsewhere && now != TaskState::kDone && now != TaskState::kFailed)
       continue;
     state_[i] = now;
-    why_[i] = detail;
+    why_[i] = status.kind == RunStatus::Kind::kNotRun ? "" : status.text();
   }
   toml::table root;
   toml::table head;
@@ -521,11 +515,11 @@ int run_slots(const Plan& plan, const std::vector<Task>& tasks, const SlotOption
         report(*next, TaskState::kBusyElsewhere, 0.0, "locked by another sweep process");
         continue;
       }
-      std::string detail;
-      const TaskState now = probe(plan, t, &detail);  // the files may have moved on since
+      RunStatus status;
+      const TaskState now = probe(plan, t, &status);  // the files may have moved on since
       if (now == TaskState::kDone || now == TaskState::kFailed) {
         unlock_task(lock_path(plan, t), fd);
-        report(*next, now, 0.0, now == TaskState::kFailed ? detail : "");
+        report(*next, now, 0.0, now == TaskState::kFailed ? status.text() : "");
         continue;
       }
       // The child runs in the point's folder, so that its files (and the scene stored in
@@ -558,8 +552,10 @@ int run_slots(const Plan& plan, const std::vector<Task>& tasks, const SlotOption
     if (pid > 0 && running.count(pid)) {
       const Child c = running[pid];
       running.erase(pid);
-      std::string detail;
-      TaskState s = probe(plan, tasks[c.task], &detail);
+      RunStatus status_read = RunStatus::not_run();
+      TaskState s = probe(plan, tasks[c.task], &status_read);
+      const std::string detail =
+          status_read.kind == RunStatus::Kind::kNotRun ? "" : status_read.text();
       if (s == TaskState::kWaiting)  // nothing written: it failed before its first sample
         s = TaskState::kFailed;
       std::string why;

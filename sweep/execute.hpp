@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "driver/run_status.hpp"
 #include "sweep/plan.hpp"
 
 namespace jamflow::sweep {
@@ -22,13 +23,9 @@ namespace jamflow::sweep {
 enum class TaskState { kWaiting, kCheckpointed, kRunning, kDone, kFailed, kBusyElsewhere };
 const char* state_name(TaskState s);
 
-// The root attribute "status" of a run file ("complete", "running", "interrupted at ...",
-// "failed at ..."), or "unreadable: <why>".
-std::string status_of(const std::string& file);
-
-// What the files say of a task (kWaiting, kCheckpointed, kDone or kFailed); `detail` gets the
-// file's status text.
-TaskState probe(const Plan& plan, const Task& task, std::string* detail = nullptr);
+// What the files say of a task (kWaiting, kCheckpointed, kDone or kFailed); `status` gets the
+// run file's status (read_run_status), when there is a file.
+TaskState probe(const Plan& plan, const Task& task, RunStatus* status = nullptr);
 
 // Writes each point's scene.toml, or checks that an existing one is the same scene: a point
 // whose scene changed since its files were written is a ConfigError (use another --out).

@@ -7,6 +7,7 @@
 #include <sstream>
 #include <system_error>
 
+#include "driver/checkpoint.hpp"
 #include "lib/text_file.hpp"
 #include "sweep/execute.hpp"
 
@@ -73,7 +74,7 @@ Reused reuse_finished(const Plan& plan, const std::vector<std::string>& roots) {
         continue;
       fs::path run = scene;
       run.replace_extension(".h5");
-      if (!fs::exists(run) || status_of(run.string()) != "complete")
+      if (!fs::exists(run) || !read_run_status(run.string()).is_complete())
         continue;
       for (auto w = range.first; w != range.second; ++w) {
         const Task& t = w->second;

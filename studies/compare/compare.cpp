@@ -438,7 +438,7 @@ double summary_value(const DiagnosedRun& r, const char* key) {
 // Why a finished run is not stable: a failed run, or its stable verdict (energy balance, force
 // step correlation; driver/verdicts.hpp) failed. Empty: stable.
 std::string unstable_reason(const DiagnosedRun& r) {
-  if (r.result.status != "complete")
+  if (!r.result.status.is_complete())
     return r.verdict_text();
   const auto it = r.result.summary.verdicts.find("stable");
   if (it != r.result.summary.verdicts.end() && it->second.failed())
@@ -476,7 +476,7 @@ analysis::CompareInput analysis_input(const ComparePlan& plan,
       const auto& v = r.result.summary.verdicts;
       const auto steady = v.find("steady");
       si.steady = si.steady && !(steady != v.end() && steady->second.failed());
-      all_complete = all_complete && r.result.status == "complete";
+      all_complete = all_complete && r.result.status.is_complete();
     }
     // Pairs need every replica: a setting whose preparation failed for some replica did not run
     // that replica, and is not analysed.
@@ -500,7 +500,7 @@ analysis::CompareInput analysis_input(const ComparePlan& plan,
             ro.block_std = b.block_std;
             ro.tau = integrated_autocorrelation(x) * sample_interval(r);
             ro.paired_error = kNaN;
-            if (k < ref.replicas.size() && ref.replicas[k].result.status == "complete") {
+            if (k < ref.replicas.size() && ref.replicas[k].result.status.is_complete()) {
               const Field rf = field_of(plan.observables[o], ref.replicas[k].gdot);
               if (rf.factor == f.factor)
                 ro.paired_error =
@@ -524,7 +524,7 @@ void diagnostics_of(SettingRuns& sr) {
   double b = 0.0, be = 0.0, c = 0.0;
   int nb = 0, nc = 0;
   for (const auto& r : sr.replicas) {
-    if (r.result.status != "complete")
+    if (!r.result.status.is_complete())
       continue;
     if (r.balance.valid) {
       b += r.balance.ratio;
@@ -685,7 +685,7 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
   for (const DiagnosedRun& p : preps) {
     const auto& v = p.result.summary.verdicts;
     const auto steady = v.find("steady");
-    if (p.result.status != "complete")
+    if (!p.result.status.is_complete())
       md += "Preparation " + p.label + " did not finish (" + p.verdict_text() +
             "): the settings that start from it are not analysed (to retry, remove its "
             "folder under prepare/runs/points/ and run again).\n\n";
@@ -878,7 +878,7 @@ int run_compare(const ComparePlan& plan, const StudyOptions& options) {
     if (const auto status = run_stage("compare", "prepare", requests, options, preps, false))
       return *status;
     for (std::size_t q = 0; q < preps.size(); ++q)
-      if (preps[q].result.status == "complete" && !preps[q].final_xyz.empty())
+      if (preps[q].result.status.is_complete() && !preps[q].final_xyz.empty())
         start[keys[q]] = preps[q].final_xyz;
       else if (!options.quiet)
         std::fprintf(stderr, "compare: preparation %s did not finish: %s\n", preps[q].label.c_str(),

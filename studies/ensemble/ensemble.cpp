@@ -190,8 +190,8 @@ void finish_ensemble(EnsembleRuns& e) {
 
 bool all_complete(const std::vector<ReplicaResult>& runs, std::string& why) {
   for (const auto& r : runs) {
-    if (r.status != "complete") {
-      why = r.status;
+    if (!r.status.is_complete()) {
+      why = r.status.text();
       return false;
     }
   }
@@ -236,7 +236,7 @@ void write_ensemble(H5Writer& w, const EnsembleRuns& e) {
       w.attr(sm, k2, v);
     w.attr(sm, "wall_seconds", r.wall_seconds);
     w.attr(sm, "cpu_seconds", r.cpu_seconds);
-    w.attr(sm, "status", r.status);
+    w.attr(sm, "status", r.status.text());
   }
 }
 

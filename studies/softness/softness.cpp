@@ -695,7 +695,7 @@ int run_softness_preset(const SoftnessPreset& preset, const StudyOptions& option
         if (!s.prep.complete() || s.prep.final_xyz.empty()) {
           s.runs[k].cls.verdict = Verdict::kNotAvailable;
           s.runs[k].unavailable = "preparation " + s.prep.verdict_text();
-          s.runs[k].result.status = "not run";
+          s.runs[k].result.status = RunStatus::not_run();
           continue;
         }
         RunRequest r;

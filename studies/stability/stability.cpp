@@ -477,7 +477,7 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
         cr.runs[k].label = cr.settings[k].label;
         cr.runs[k].cls.verdict = Verdict::kNotAvailable;
         cr.runs[k].unavailable = "preparation run " + cr.prep.verdict_text();
-        cr.runs[k].result.status = "not run";
+        cr.runs[k].result.status = RunStatus::not_run();
       }
     }
     summarize_case(cr);

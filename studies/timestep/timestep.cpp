@@ -454,7 +454,7 @@ int run_timestep_preset(const TimestepPreset& preset, const StudyOptions& option
       for (std::size_t k = 0; k < pr.settings.size(); ++k) {
         pr.runs[k].cls.verdict = Verdict::kNotAvailable;
         pr.runs[k].unavailable = "preparation " + pr.prep.verdict_text();
-        pr.runs[k].result.status = "not run";
+        pr.runs[k].result.status = RunStatus::not_run();
       }
     }
     results.push_back(std::move(pr));

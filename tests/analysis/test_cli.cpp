@@ -19,14 +19,11 @@
 namespace jamflow::analysis {
 namespace {
 
+using testing::CliRun;
+using testing::num;
 using testing::read_text;
+using testing::run_analyze;
 using testing::ScratchDir;
-
-std::string num(double x) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", x);
-  return buf;
-}
 
 std::string granular_csv(const std::vector<GranularPoint>& pts) {
   std::string s = "N,P,gdot,phi,phi_err,mu,mu_err\n";
@@ -56,20 +53,6 @@ std::string shear_csv_with_pressure(const std::vector<ShearPoint>& pts) {
   return s;
 }
 
-struct CliRun {
-  int code;
-  std::string err;
-};
-
-CliRun run(const std::vector<std::string>& args) {
-  ::testing::internal::CaptureStderr();
-  ::testing::internal::CaptureStdout();
-  int code = analyze_main(args);
-  std::string err = ::testing::internal::GetCapturedStderr();
-  (void)::testing::internal::GetCapturedStdout();
-  return {code, err};
-}
-
 // Every field the issue names is an object {"value", "error"} with finite numbers.
 void expect_measured(const Json& j, const std::string& what) {
   ASSERT_TRUE(j.is_object()) << what;
@@ -79,13 +62,13 @@ void expect_measured(const Json& j, const std::string& what) {
 }
 
 TEST(Cli, HelpAndUsageErrors) {
-  EXPECT_EQ(run({"--help"}).code, 0);
-  EXPECT_EQ(run({"hard-sphere", "--help"}).code, 0);
-  CliRun none = run({});
+  EXPECT_EQ(run_analyze({"--help"}).code, 0);
+  EXPECT_EQ(run_analyze({"hard-sphere", "--help"}).code, 0);
+  CliRun none = run_analyze({});
   EXPECT_EQ(none.code, 2);
   EXPECT_NE(none.err.find("jamflow analyze: error:"), std::string::npos) << none.err;
-  EXPECT_EQ(run({"hard-sphere", "x.csv"}).code, 2);  // -o missing
-  CliRun missing = run({"hard-sphere", "/nonexistent/x.csv", "-o", "/tmp/x.json"});
+  EXPECT_EQ(run_analyze({"hard-sphere", "x.csv"}).code, 2);  // -o missing
+  CliRun missing = run_analyze({"hard-sphere", "/nonexistent/x.csv", "-o", "/tmp/x.json"});
   EXPECT_EQ(missing.code, 2);
   EXPECT_NE(missing.err.find("/nonexistent/x.csv: cannot open file"), std::string::npos)
       << missing.err;
@@ -99,7 +82,7 @@ TEST(Cli, HardSphereWritesJsonAndReport) {
   spec.sizes = {100, 300, 1000, 3000, 10000};
   auto data = dir.write("granular.csv", granular_csv(testing::make_granular(spec)));
   const std::string out = dir.file("hs.json");
-  CliRun r = run({"hard-sphere", data, "-o", out, "--no-plots", "--window", "0.58:0.635"});
+  CliRun r = run_analyze({"hard-sphere", data, "-o", out, "--no-plots", "--window", "0.58:0.635"});
   ASSERT_EQ(r.code, 0) << r.err;
   Json j = Json::parse(read_text(out));
   for (const char* n : {"100", "1000", "10000"}) {
@@ -143,7 +126,7 @@ TEST(Cli, AnOutputThatIsAnInputIsRefused) {
   std::filesystem::create_directories(dir.file("sub"));
   const std::string other = dir.file("sub") + "/../d.csv";
   for (const std::string& out : {data, other}) {
-    CliRun r = run({"hard-sphere", data, "-o", out, "--no-plots"});
+    CliRun r = run_analyze({"hard-sphere", data, "-o", out, "--no-plots"});
     EXPECT_EQ(r.code, 2) << r.err;
     EXPECT_NE(r.err.find("would overwrite the input '" + data + "'"), std::string::npos) << r.err;
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
@@ -151,7 +134,7 @@ TEST(Cli, AnOutputThatIsAnInputIsRefused) {
   }
   // The report beside the JSON counts too: -o d.json writes d.md.
   auto md = dir.write("r.md", text);
-  CliRun r = run({"olsson-teitel", md, "-o", dir.file("r.json"), "--no-plots"});
+  CliRun r = run_analyze({"olsson-teitel", md, "-o", dir.file("r.json"), "--no-plots"});
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("would overwrite the input"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir.file("r.json")));
@@ -159,13 +142,13 @@ TEST(Cli, AnOutputThatIsAnInputIsRefused) {
 
 // An unknown analysis is named (it read "A subcommand is required"); -o '' is refused.
 TEST(Cli, UnknownAnalysisAndEmptyOutputAreNamed) {
-  CliRun bogus = run({"bogus", "x.csv", "-o", "x.json"});
+  CliRun bogus = run_analyze({"bogus", "x.csv", "-o", "x.json"});
   EXPECT_EQ(bogus.code, 2);
   EXPECT_NE(bogus.err.find(
                 "unknown analysis 'bogus'; allowed: hard-sphere, soft, olsson-teitel, flow-curve"),
             std::string::npos)
       << bogus.err;
-  CliRun empty = run({"hard-sphere", "x.csv", "-o", ""});
+  CliRun empty = run_analyze({"hard-sphere", "x.csv", "-o", ""});
   EXPECT_EQ(empty.code, 2);
   EXPECT_NE(empty.err.find("-o '': allowed a file name"), std::string::npos) << empty.err;
 }
@@ -174,10 +157,12 @@ TEST(Cli, HardSphereReportsBadWindowAsUsageError) {
   ScratchDir dir;
   testing::GranularSpec spec;
   auto data = dir.write("g.csv", granular_csv(testing::make_granular(spec)));
-  CliRun r = run({"hard-sphere", data, "-o", dir.file("hs.json"), "--no-plots", "--window", "0.6"});
+  CliRun r = run_analyze(
+      {"hard-sphere", data, "-o", dir.file("hs.json"), "--no-plots", "--window", "0.6"});
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("--window"), std::string::npos) << r.err;
-  r = run({"hard-sphere", data, "-o", dir.file("hs.json"), "--no-plots", "--window", "0.6:0.7"});
+  r = run_analyze(
+      {"hard-sphere", data, "-o", dir.file("hs.json"), "--no-plots", "--window", "0.6:0.7"});
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("phi_J"), std::string::npos) << r.err;
 }
@@ -188,7 +173,7 @@ TEST(Cli, SoftWritesPerPressureResults) {
   spec.pressures = {1e-7, 1e-6, 1e-5, 1e-4, 1e-3};
   auto data = dir.write("granular.csv", granular_csv(testing::make_granular(spec)));
   const std::string out = dir.file("soft.json");
-  CliRun r = run({"soft", data, "-o", out, "--no-plots"});
+  CliRun r = run_analyze({"soft", data, "-o", out, "--no-plots"});
   ASSERT_EQ(r.code, 0) << r.err;
   Json j = Json::parse(read_text(out));
   const Json& s = j.at("sizes").at("1000");
@@ -208,14 +193,16 @@ TEST(Cli, SoftWritesPerPressureResults) {
   cv.n = 1000;
   auto cv_data = dir.write(
       "cv.csv", shear_csv_with_pressure(testing::make_soft_flow_curves(cv, testing::SoftTruth{})));
-  r = run({"soft", data, "--yield-data", cv_data, "-o", out, "--no-plots", "--bootstrap", "20"});
+  r = run_analyze(
+      {"soft", data, "--yield-data", cv_data, "-o", out, "--no-plots", "--bootstrap", "20"});
   ASSERT_EQ(r.code, 0) << r.err;
   const Json y = Json::parse(read_text(out)).at("sizes").at("1000").at("joint").at("yield_data");
   EXPECT_EQ(y.at("phi").size(), 14u);
-  CliRun few = run({"soft", data, "-o", out, "--no-plots", "--bootstrap", "3"});
+  CliRun few = run_analyze({"soft", data, "-o", out, "--no-plots", "--bootstrap", "3"});
   EXPECT_EQ(few.code, 2);
   EXPECT_NE(few.err.find("--bootstrap 3"), std::string::npos) << few.err;
-  CliRun bad = run({"soft", data, "-o", out, "--no-plots", "--hs-params", "0.4:0.07:x:0.35"});
+  CliRun bad =
+      run_analyze({"soft", data, "-o", out, "--no-plots", "--hs-params", "0.4:0.07:x:0.35"});
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.err.find("--hs-params"), std::string::npos) << bad.err;
 }
@@ -227,8 +214,8 @@ TEST(Cli, OlssonTeitelWithPlotsOrAWarningWhenPythonIsMissing) {
   const std::string out = dir.file("ot.json");
   // No interpreter: a one-line warning, JSON and markdown still written, exit 0.
   ::setenv("JAMFLOW_PYTHON", "/nonexistent/python3", 1);
-  CliRun r =
-      run({"olsson-teitel", data, "-o", out, "--bootstrap", "10", "--at", "0.6474:1.33:2.55"});
+  CliRun r = run_analyze(
+      {"olsson-teitel", data, "-o", out, "--bootstrap", "10", "--at", "0.6474:1.33:2.55"});
   ::unsetenv("JAMFLOW_PYTHON");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.err.find("warning: plots skipped"), std::string::npos) << r.err;
@@ -243,7 +230,7 @@ TEST(Cli, OlssonTeitelWithPlotsOrAWarningWhenPythonIsMissing) {
   }
   EXPECT_TRUE(std::filesystem::exists(dir.file("ot.md")));
   // With the build's interpreter: the figure is drawn when matplotlib exists.
-  r = run({"olsson-teitel", data, "-o", out, "--bootstrap", "10"});
+  r = run_analyze({"olsson-teitel", data, "-o", out, "--bootstrap", "10"});
   ASSERT_EQ(r.code, 0) << r.err;
   if (r.err.find("plots skipped") == std::string::npos) {
     EXPECT_TRUE(std::filesystem::exists(dir.file("ot_fig9.png")));
@@ -289,7 +276,7 @@ TEST(Cli, OlssonTeitelFitsTheSoftRheologyWhenPressuresAreMeasured) {
   auto data = dir.write("cv.csv", shear_csv_with_pressure(
                                       testing::make_soft_flow_curves(spec, testing::SoftTruth{})));
   const std::string out = dir.file("ot.json");
-  CliRun r = run({"olsson-teitel", data, "-o", out, "--bootstrap", "10", "--no-plots"});
+  CliRun r = run_analyze({"olsson-teitel", data, "-o", out, "--bootstrap", "10", "--no-plots"});
   ASSERT_EQ(r.code, 0) << r.err;
   Json j = Json::parse(read_text(out));
   ASSERT_TRUE(j.contains("soft")) << r.err;
@@ -298,7 +285,7 @@ TEST(Cli, OlssonTeitelFitsTheSoftRheologyWhenPressuresAreMeasured) {
   EXPECT_TRUE(j.at("best").contains("quality_bootstrap_spread"));
   // Without the pressure columns the soft law is skipped, and the result says why.
   auto bare = dir.write("bare.csv", shear_csv(testing::make_two_branch(spec)));
-  r = run({"olsson-teitel", bare, "-o", out, "--bootstrap", "10", "--no-plots"});
+  r = run_analyze({"olsson-teitel", bare, "-o", out, "--bootstrap", "10", "--no-plots"});
   ASSERT_EQ(r.code, 0) << r.err;
   j = Json::parse(read_text(out));
   EXPECT_FALSE(j.contains("soft"));
@@ -309,7 +296,7 @@ TEST(Cli, RunFileWithoutSummaryIsAnInputError) {
   ScratchDir dir;
   // An HDF5 signature followed by garbage: recognised as HDF5, then rejected.
   auto path = dir.write("broken.h5", std::string("\x89HDF\r\n\x1a\n", 8) + "garbage");
-  CliRun r = run({"olsson-teitel", path, "-o", dir.file("ot.json"), "--no-plots"});
+  CliRun r = run_analyze({"olsson-teitel", path, "-o", dir.file("ot.json"), "--no-plots"});
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("broken.h5"), std::string::npos) << r.err;
 }

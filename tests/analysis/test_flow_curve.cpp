@@ -22,28 +22,11 @@
 namespace jamflow::analysis {
 namespace {
 
+using testing::CliRun;
+using testing::num;
 using testing::read_text;
+using testing::run_analyze;
 using testing::ScratchDir;
-
-std::string num(double x) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", x);
-  return buf;
-}
-
-struct CliRun {
-  int code;
-  std::string err;
-};
-
-CliRun run(const std::vector<std::string>& args) {
-  ::testing::internal::CaptureStderr();
-  ::testing::internal::CaptureStdout();
-  const int code = analyze_main(args);
-  std::string err = ::testing::internal::GetCapturedStderr();
-  (void)::testing::internal::GetCapturedStdout();
-  return {code, err};
-}
 
 std::size_t lines(const std::string& s) {
   return static_cast<std::size_t>(std::count(s.begin(), s.end(), '\n'));
@@ -225,7 +208,7 @@ TEST(FlowCurveCli, WritesFitsAndAdmitsFailedRowsOnlyWhenAsked) {
   const auto data = dir.write("t.csv", cv_table(pts, {"1", "1", "0", "1", "1", "1", "1"}));
   const std::string out = dir.file("fc.json");
 
-  CliRun r = run({"flow-curve", data, "-o", out, "--no-plots"});
+  CliRun r = run_analyze({"flow-curve", data, "-o", out, "--no-plots"});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.err.find("1 of 7 rows left out"), std::string::npos) << r.err;
   Json j = Json::parse(read_text(out));
@@ -244,7 +227,7 @@ TEST(FlowCurveCli, WritesFitsAndAdmitsFailedRowsOnlyWhenAsked) {
   EXPECT_TRUE(hb.at("reduced_chi2").is_number());
   EXPECT_TRUE(std::filesystem::exists(dir.file("fc.md")));
 
-  r = run({"flow-curve", data, "-o", out, "--no-plots", "--include-failed"});
+  r = run_analyze({"flow-curve", data, "-o", out, "--no-plots", "--include-failed"});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.err.find("1 of 7 rows included and marked although"), std::string::npos) << r.err;
   j = Json::parse(read_text(out));
@@ -305,7 +288,7 @@ TEST(FlowCurveCli, TooFewPointsExitsTwoWithOneLine) {
   auto pts = curve(
       0.6, {1e-4, 1e-3}, 0.02, [](double g) { return g; }, nullptr);
   const auto data = dir.write("t.csv", cv_table(pts, {"1", "1"}));
-  CliRun r = run({"flow-curve", data, "-o", dir.file("fc.json"), "--no-plots"});
+  CliRun r = run_analyze({"flow-curve", data, "-o", dir.file("fc.json"), "--no-plots"});
   EXPECT_EQ(r.code, 2);
   EXPECT_EQ(lines(r.err), 1u) << r.err;
   EXPECT_NE(r.err.find("needs at least 3 points"), std::string::npos) << r.err;
@@ -330,11 +313,11 @@ TEST(FlowCurveCli, EveryAnalysisOnASingleFlowCurveExitsAsTheReadmeSays) {
   const auto cv_file = dir.write("cv.csv", cv_table(pts, {"1", "1", "1", "1", "1"}));
   for (const std::string& file : {cp_file, cv_file}) {
     for (const char* analysis : {"hard-sphere", "soft", "olsson-teitel"}) {
-      CliRun r = run({analysis, file, "-o", dir.file("x.json"), "--no-plots"});
+      CliRun r = run_analyze({analysis, file, "-o", dir.file("x.json"), "--no-plots"});
       EXPECT_EQ(r.code, 2) << analysis << " on " << file << ": " << r.err;
       EXPECT_NE(r.err.find("error:"), std::string::npos) << r.err;
     }
-    CliRun r = run({"flow-curve", file, "-o", dir.file("fc.json"), "--no-plots"});
+    CliRun r = run_analyze({"flow-curve", file, "-o", dir.file("fc.json"), "--no-plots"});
     EXPECT_EQ(r.code, 0) << file << ": " << r.err;
   }
 }

@@ -1,11 +1,16 @@
-// Helpers shared by the analysis tests: scratch directories and file writing.
+// Helpers shared by the analysis tests: scratch directories, file writing, numbers written
+// to round-trip, and `jamflow analyze` run in process.
 #pragma once
 
 #include <unistd.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
+
+#include "analysis/analyze_cli.hpp"
 
 #include <gtest/gtest.h>
 
@@ -44,6 +49,28 @@ class ScratchDir {
 inline std::string read_text(const std::string& path) {
   std::ifstream in(path);
   return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// Seventeen significant digits: the double that was written is the one read back.
+inline std::string num(double x) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", x);
+  return buf;
+}
+
+// `jamflow analyze ARGS` in this process: its exit code and what it wrote to stderr.
+struct CliRun {
+  int code;
+  std::string err;
+};
+
+inline CliRun run_analyze(const std::vector<std::string>& args) {
+  ::testing::internal::CaptureStderr();
+  ::testing::internal::CaptureStdout();
+  const int code = analyze_main(args);
+  std::string err = ::testing::internal::GetCapturedStderr();
+  (void)::testing::internal::GetCapturedStdout();
+  return {code, err};
 }
 
 }  // namespace jamflow::analysis::testing

@@ -55,7 +55,7 @@ TEST(Run, SteadyStateEnergyBalance) {
   RunOptions opt;
   opt.quiet = true;
   const ReplicaResult r = run_replica(spec, spec.seed, opt);
-  ASSERT_EQ(r.status, "complete");
+  ASSERT_TRUE(r.status.is_complete()) << r.status.text();
   const auto& v = r.summary.values;
   EXPECT_NEAR(v.at("energy_balance"), 1.0, 0.02);
   EXPECT_GT(v.at("sigma_xy"), 0.0);  // sigma_xy gdot >= 0
@@ -213,9 +213,10 @@ TEST(Run, ForceEvaluationBudgetStopsAtTheSameSampleAndFinishesTheFile) {
   opt.quiet = true;
   const ReplicaResult a = run_replica(spec, 3, opt);
   const ReplicaResult b = run_replica(spec, 3, opt);
-  EXPECT_TRUE(stopped_by_budget(a.status)) << a.status;
-  EXPECT_TRUE(finished_status(a.status));
-  EXPECT_NE(a.status.find("[run] max_force_evaluations = 300"), std::string::npos) << a.status;
+  EXPECT_TRUE(a.status.is_budget()) << a.status.text();
+  EXPECT_TRUE(a.status.is_finished());
+  EXPECT_NE(a.status.text().find("[run] max_force_evaluations = 300"), std::string::npos)
+      << a.status.text();
   EXPECT_EQ(a.status, b.status);
   ASSERT_EQ(a.series.samples.size(), b.series.samples.size());
   EXPECT_LT(a.series.samples.size(), 50u);
@@ -255,11 +256,11 @@ TEST(Run, RunFileReadsBackTheRun) {
   ASSERT_TRUE(write_run_file(spec, {r}, out));
   for (const bool everything : {true, false}) {
     const RunFile f = read_run_file(out, everything);
-    EXPECT_EQ(f.status, "complete");
+    EXPECT_TRUE(f.status.is_complete()) << f.status.text();
     EXPECT_EQ(f.scene, spec.scene_text);
     ASSERT_EQ(f.replicas.size(), 1u);
     const ReplicaResult& b = f.replicas[0];
-    EXPECT_EQ(b.status, "complete");
+    EXPECT_TRUE(b.status.is_complete()) << b.status.text();
     EXPECT_EQ(b.summary.values.at("sigma_xy"), r.summary.values.at("sigma_xy"));
     EXPECT_EQ(b.summary.verdicts, r.summary.verdicts);
     EXPECT_EQ(b.summary.texts, r.summary.texts);
@@ -359,7 +360,7 @@ TEST(Run, CvodeBudgetCountsForcePassEquivalents) {
   RunOptions opt;
   opt.quiet = true;
   const ReplicaResult full = run_replica(spec_of(text), 3, opt);
-  ASSERT_EQ(full.status, "complete");
+  ASSERT_TRUE(full.status.is_complete()) << full.status.text();
   const auto stat = [](const ReplicaResult& r, const char* name) {
     return statistic(r.integrator_stats, name, std::nan(""));
   };
@@ -371,8 +372,9 @@ TEST(Run, CvodeBudgetCountsForcePassEquivalents) {
   const auto budget = static_cast<std::int64_t>(0.7 * stat(full, "force_pass_equivalents"));
   const ReplicaResult cut =
       run_replica(spec_of(text, {"run.max_force_evaluations=" + std::to_string(budget)}), 3, opt);
-  ASSERT_TRUE(stopped_by_budget(cut.status)) << cut.status;
-  EXPECT_NE(cut.status.find("force-pass equivalents"), std::string::npos) << cut.status;
+  ASSERT_TRUE(cut.status.is_budget()) << cut.status.text();
+  EXPECT_NE(cut.status.detail.find("force-pass equivalents"), std::string::npos)
+      << cut.status.text();
   const double equivalents = stat(cut, "force_pass_equivalents");
   RecordProperty("cut", "equivalents " + std::to_string(equivalents) + ", force evaluations " +
                             std::to_string(stat(cut, "force_evaluations")) + ", jtimes " +

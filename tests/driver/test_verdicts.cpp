@@ -41,7 +41,7 @@ Summary run(const RunSpec& spec) {
   RunOptions opt;
   opt.quiet = true;
   const ReplicaResult r = run_replica(spec, spec.seed, opt);
-  EXPECT_EQ(r.status, "complete");
+  EXPECT_TRUE(r.status.is_complete()) << r.status.text();
   return r.summary;
 }
 
@@ -60,6 +60,41 @@ TEST(Verdicts, TextRoundTrip) {
   EXPECT_EQ(Verdict::pass().value(), 1.0);
   EXPECT_EQ(Verdict::fail("x").value(), 0.0);
   EXPECT_TRUE(std::isnan(Verdict::not_checked("x").value()));
+}
+
+// The run file's status texts, written before the type, read back as the same kind and detail,
+// and written again unchanged.
+TEST(RunStatus, TheFileTextsRoundTrip) {
+  struct Case {
+    const char* text;
+    RunStatus::Kind kind;
+    const char* detail;
+  };
+  for (const Case& c : {
+           Case{"complete", RunStatus::Kind::kComplete, ""},
+           Case{"running", RunStatus::Kind::kRunning, ""},
+           Case{"interrupted at t = 2285.46 by SIGTERM", RunStatus::Kind::kInterrupted,
+                "at t = 2285.46 by SIGTERM"},
+           Case{"failed at t = 12: forces became non-finite", RunStatus::Kind::kFailed,
+                "at t = 12: forces became non-finite"},
+           Case{"budget: stopped at t = 3 after 300 force-pass equivalents",
+                RunStatus::Kind::kBudget, "stopped at t = 3 after 300 force-pass equivalents"},
+           Case{"not run", RunStatus::Kind::kNotRun, ""},
+           Case{"aborted: jamflow: error: cell too small", RunStatus::Kind::kAborted,
+                "jamflow: error: cell too small"},
+           Case{"unreadable: cannot open", RunStatus::Kind::kUnreadable, "cannot open"},
+       }) {
+    const RunStatus s = RunStatus::parse(c.text);
+    EXPECT_EQ(s.kind, c.kind) << c.text;
+    EXPECT_EQ(s.detail, c.detail) << c.text;
+    EXPECT_EQ(s.text(), c.text);
+  }
+  // Text that names no kind is unreadable, and says what it was; a longer word is not a kind.
+  EXPECT_EQ(RunStatus::parse("").kind, RunStatus::Kind::kUnreadable);
+  EXPECT_EQ(RunStatus::parse("completed").kind, RunStatus::Kind::kUnreadable);
+  EXPECT_NE(RunStatus::parse("completed").detail.find("completed"), std::string::npos);
+  EXPECT_TRUE(RunStatus::budget("x").is_finished());
+  EXPECT_FALSE(RunStatus::interrupted("x").is_finished());
 }
 
 TEST(TrendT, SeesALineAndNotNoise) {
@@ -158,7 +193,7 @@ TEST(Verdicts, NonFiniteValuesFailTheirVerdicts) {
   opt.quiet = true;
   const RunSpec dilute = spec_of(scene(kVolume, 0.6, 1e-3, 0.1, 0.0, 20.0), {"system.phi=1e-9"});
   const ReplicaResult r = run_replica(dilute, 1, opt);
-  ASSERT_EQ(r.status, "complete");
+  ASSERT_TRUE(r.status.is_complete()) << r.status.text();
   EXPECT_TRUE(r.summary.verdicts.at("steady").failed()) << r.summary.verdicts.at("steady").text();
   EXPECT_TRUE(r.summary.verdicts.at("stable").failed()) << r.summary.verdicts.at("stable").text();
 }
@@ -242,7 +277,7 @@ TEST(SceneChecks, RunsThatCannotEndOrFitAreRefusedUpFront) {
   const RunSpec dilute = spec_of(base, {"system.phi=1e-9", "run.t_eq=0.0", "run.t_av=20.0"});
   RunOptions opt;
   opt.quiet = true;
-  EXPECT_EQ(run_replica(dilute, 1, opt).status, "complete");
+  EXPECT_TRUE(run_replica(dilute, 1, opt).status.is_complete());
 }
 
 TEST(SceneChecks, StrictTurnsAFailedVerdictIntoExitStatus3) {

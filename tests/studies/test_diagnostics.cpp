@@ -196,15 +196,15 @@ TEST(Diagnostics, Classification) {
   EXPECT_NE(osc.reason.find("energy balance"), std::string::npos);
 
   ReplicaResult failed = r;
-  failed.status = "failed at t = 12: forces became non-finite";
+  failed.status = RunStatus::parse("failed at t = 12: forces became non-finite");
   EXPECT_EQ(classify(failed, eb, &w, {}).verdict, studies::Verdict::kDiverged);
   // Stopped by a signal with its checkpoint kept: unfinished, not diverged.
   ReplicaResult interrupted = r;
-  interrupted.status = "interrupted at t = 2285.46 by SIGTERM";
+  interrupted.status = RunStatus::parse("interrupted at t = 2285.46 by SIGTERM");
   const Classification unfinished = classify(interrupted, eb, &w, {});
   EXPECT_EQ(unfinished.verdict, studies::Verdict::kIncomplete);
   EXPECT_NE(unfinished.reason.find("not finished"), std::string::npos);
-  w.status = "failed at step 3: cell volume became -1";
+  w.status = RunStatus::parse("failed at step 3: cell volume became -1");
   EXPECT_EQ(classify(r, eb, &w, {}).verdict, studies::Verdict::kDiverged);
 }
 

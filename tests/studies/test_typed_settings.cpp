@@ -52,7 +52,7 @@ TEST(StudyTypedSettings, EulerAtOneThirdOfAPointOneRunsAtExactlyThatStep) {
   RunOptions o;
   o.quiet = true;
   const ReplicaResult r = run_replica(spec, 1, o);
-  ASSERT_EQ(r.status, "complete");
+  ASSERT_TRUE(r.status.is_complete()) << r.status.text();
   const double samples = std::round((spec.t_eq + spec.t_av) / spec.sample_every);
   double steps = -1.0;
   for (const auto& [k, v] : r.integrator_stats)
