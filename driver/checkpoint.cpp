@@ -21,18 +21,6 @@ namespace jamflow {
 
 namespace {
 
-// The sampled fields, in Sample's order.
-constexpr std::pair<const char*, double Sample::*> kFields[] = {
-    {"time", &Sample::time},
-    {"strain", &Sample::strain},
-    {"volume", &Sample::volume},
-    {"phi", &Sample::phi},
-    {"pressure", &Sample::pressure},
-    {"sigma_xy", &Sample::sigma_xy},
-    {"energy", &Sample::energy},
-    {"dissipation", &Sample::dissipation},
-    {"piston_dissipation", &Sample::piston_dissipation}};
-
 std::vector<double> flat(const Eigen::Matrix3d& m) {
   std::vector<double> v(9);
   for (int a = 0; a < 3; ++a)
@@ -141,6 +129,10 @@ NeighbourList::Snapshot read_list(const H5Reader& r, const std::string& g) {
 
 }  // namespace
 
+bool timeseries_has(const RunSpec& spec, std::string_view column) {
+  return column != "piston_dissipation" || spec.ensemble->has_piston();
+}
+
 std::string checkpoint_digest(const std::string& scene_text, const std::string& version,
                               const std::vector<ReplicaResult>& replicas) {
   Scene scene = Scene::parse(scene_text, "scene");
@@ -170,8 +162,8 @@ std::string checkpoint_digest(const std::string& scene_text, const std::string& 
   return hex;
 }
 
-void write_checkpoint(H5Writer& w, const RunSpec& spec,
-                      const std::vector<ReplicaResult>& replicas) {
+void write_checkpoint(H5Writer& w, const RunSpec& spec, const std::vector<ReplicaResult>& replicas,
+                      const std::vector<std::string>& timeseries) {
   w.group("/checkpoint");
   w.attr("/checkpoint", "format", kCheckpointFormat);
   w.attr("/checkpoint", "digest", checkpoint_digest(spec.scene_text, JAMFLOW_VERSION, replicas));
@@ -179,8 +171,13 @@ void write_checkpoint(H5Writer& w, const RunSpec& spec,
   for (std::size_t k = 0; k < replicas.size(); ++k) {
     const ReplicaResult& res = replicas[k];
     const std::string g = "/checkpoint/replicas/" + std::to_string(k);
-    for (const auto& [name, field] : kFields)
-      w.dataset(g + "/series/" + name, res.series.column(field));
+    // The series is the run's own timeseries group: stored once, named here. Only what that
+    // group lacks (piston_dissipation without a piston, zeros) is stored in the checkpoint.
+    w.group(g);
+    w.attr(g, "series", timeseries.at(k));
+    for (const auto& [name, field] : kSeriesFields)
+      if (!timeseries_has(spec, name))
+        w.dataset(g + "/series/" + name, res.series.column(field));
     w.attr(g, "seed", static_cast<std::int64_t>(res.seed));
     w.attr(g, "status", res.status.text());
     w.attr(g, "wall_seconds", res.wall_seconds);
@@ -225,17 +222,24 @@ std::vector<ReplicaResult> read_checkpoint(const H5Reader& r) {
   for (std::int64_t k = 0; k < count; ++k) {
     const std::string g = "/checkpoint/replicas/" + std::to_string(k);
     ReplicaResult res;
+    // Each column from the checkpoint's own series (files written before the series was stored
+    // once hold every column there), else from the timeseries group it names.
+    const std::string elsewhere = r.has_attr(g, "series") ? r.attr_string(g, "series") : "";
     std::vector<std::vector<double>> columns;
-    for (const auto& [name, field] : kFields) {
+    for (const auto& [name, field] : kSeriesFields) {
       (void)field;
-      columns.push_back(r.read_doubles(g + "/series/" + name));
+      const std::string own = g + "/series/" + name;
+      if (r.exists(own) || elsewhere.empty())
+        columns.push_back(r.read_doubles(own));
+      else
+        columns.push_back(r.read_doubles(elsewhere + "/" + name));
       if (columns.back().size() != columns.front().size())
         throw IoError(g + "/series: columns of different lengths");
     }
     res.series.samples.resize(columns.front().size());
     for (std::size_t c = 0; c < columns.size(); ++c)
       for (std::size_t s = 0; s < columns[c].size(); ++s)
-        res.series.samples[s].*(kFields[c].second) = columns[c][s];
+        res.series.samples[s].*(kSeriesFields[c].field) = columns[c][s];
     res.seed = static_cast<std::uint64_t>(r.attr_int(g, "seed"));
     res.status = RunStatus::parse(r.attr_string(g, "status"));
     res.wall_seconds = r.attr_double(g, "wall_seconds");

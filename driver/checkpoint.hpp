@@ -10,7 +10,12 @@
 //                                           step_pairs (a checkpoint without cpu_seconds, written
 //                                           before CPU time was recorded, is read with its
 //                                           wall seconds in its place and cpu_from_wall set)
-//     series/<field>                 the samples so far (time, strain, volume, ...)
+//                                    series: the group holding the samples so far (the
+//                                           replica's /timeseries or
+//                                           /replicas/<k>/timeseries, stored once)
+//     series/<field>                 only the columns that group lacks (piston_dissipation at
+//                                    constant volume); files written before every column
+//                                    here (read as before)
 //     integrator                     attrs: the integrator's counters
 //     model                          attrs: evaluations, builds_at_last_sort, sorted_once,
 //                                           evaluated, particle_volume
@@ -18,6 +23,7 @@
 //     model/list                     the neighbour lists (lib/neighbour_list.hpp Snapshot)
 #pragma once
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "driver/run.hpp"
@@ -29,9 +35,31 @@ class H5Reader;
 
 inline constexpr std::int64_t kCheckpointFormat = 1;
 
+// The sampled columns of a replica's series, in Sample's order: the run file's timeseries
+// group and a checkpoint store these names.
+struct SeriesField {
+  const char* name;
+  double Sample::*field;
+};
+inline constexpr SeriesField kSeriesFields[] = {
+    {"time", &Sample::time},
+    {"strain", &Sample::strain},
+    {"volume", &Sample::volume},
+    {"phi", &Sample::phi},
+    {"pressure", &Sample::pressure},
+    {"sigma_xy", &Sample::sigma_xy},
+    {"energy", &Sample::energy},
+    {"dissipation", &Sample::dissipation},
+    {"piston_dissipation", &Sample::piston_dissipation}};
+
+// Whether a run's timeseries group holds `column` (piston_dissipation only with a piston).
+bool timeseries_has(const RunSpec& spec, std::string_view column);
+
 // Writes the replicas' checkpoints (finished and running alike) under /checkpoint, with the
-// attribute "digest" (checkpoint_digest) of the scene, the version and the state.
-void write_checkpoint(H5Writer& w, const RunSpec& spec, const std::vector<ReplicaResult>& replicas);
+// attribute "digest" (checkpoint_digest) of the scene, the version and the state. Replica k's
+// series is not written again: `timeseries[k]` names the group of this file that holds it.
+void write_checkpoint(H5Writer& w, const RunSpec& spec, const std::vector<ReplicaResult>& replicas,
+                      const std::vector<std::string>& timeseries);
 
 // A digest (64-bit FNV-1a, hex) of what a continued run must not change: the scene text as
 // parsed, but for the keys a continuation may set (run.threads, output.file, and --extend's

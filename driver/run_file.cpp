@@ -65,17 +65,9 @@ void write_replica(H5Writer& w, const RunSpec& spec, const ReplicaResult& r,
                    const std::string& prefix, const ReplicaResult* summary = nullptr) {
   const auto& ss = r.series;
   const std::string ts = prefix + "/timeseries";
-  w.dataset(ts + "/time", ss.column(&Sample::time));
-  w.dataset(ts + "/strain", ss.column(&Sample::strain));
-  w.dataset(ts + "/volume", ss.column(&Sample::volume));
-  w.dataset(ts + "/phi", ss.column(&Sample::phi));
-  w.dataset(ts + "/pressure", ss.column(&Sample::pressure));
-  w.dataset(ts + "/sigma_xy", ss.column(&Sample::sigma_xy));
-  w.dataset(ts + "/energy", ss.column(&Sample::energy));
-  w.dataset(ts + "/dissipation", ss.column(&Sample::dissipation));
-  if (spec.ensemble->has_piston()) {
-    w.dataset(ts + "/piston_dissipation", ss.column(&Sample::piston_dissipation));
-  }
+  for (const auto& [name, field] : kSeriesFields)
+    if (timeseries_has(spec, name))
+      w.dataset(ts + "/" + name, ss.column(field));
   const auto t_eq = r.summary.values.find("t_eq");
   w.attr(ts, "t_eq", t_eq == r.summary.values.end() ? spec.t_eq : t_eq->second);
   w.attr(ts, "seed", static_cast<std::int64_t>(r.seed));
@@ -186,7 +178,11 @@ void write_run_layout(H5Writer& w, const RunSpec& spec,
       write_replica(w, spec, replicas[k], "/replicas/" + std::to_string(k));
     }
   }
-  write_checkpoint(w, spec, replicas);
+  std::vector<std::string> timeseries;
+  for (std::size_t k = 0; k < replicas.size(); ++k)
+    timeseries.push_back(replicas.size() > 1 ? "/replicas/" + std::to_string(k) + "/timeseries"
+                                             : "/timeseries");
+  write_checkpoint(w, spec, replicas, timeseries);
 }
 
 bool write_run_file(const RunSpec& spec, const std::vector<ReplicaResult>& replicas,

@@ -275,6 +275,83 @@ TEST(Run, RunFileReadsBackTheRun) {
   }
 }
 
+// A checkpoint names the timeseries group that holds its replica's series instead of storing
+// it a second time (only piston_dissipation, which a constant-volume timeseries lacks, is
+// kept); it reads back every sample bit for bit, and a file written before that (the whole
+// series under /checkpoint) still reads.
+TEST(Run, CheckpointStoresTheSeriesOnce) {
+  TempDir dir;
+  const auto same_series = [](const ReplicaResult& a, const ReplicaResult& b) {
+    if (a.series.samples.size() != b.series.samples.size())
+      return false;
+    for (std::size_t s = 0; s < a.series.samples.size(); ++s)
+      for (const auto& [name, field] : kSeriesFields)
+        if (std::memcmp(&(a.series.samples[s].*field), &(b.series.samples[s].*field),
+                        sizeof(double)) != 0)
+          return false;
+    return true;
+  };
+  RunOptions opt;
+  opt.quiet = true;
+  struct Case {
+    std::string name;
+    std::vector<std::string> sets;
+    std::size_t replicas;
+  };
+  for (const Case& c : {Case{"cv.h5", {}, 1}, Case{"np.h5",
+                                                   {"ensemble.kind=\"constant_pressure\"",
+                                                    "ensemble.pressure=1e-2", "run.replicas=2"},
+                                                   2}}) {
+    const std::string out = dir.file(c.name);
+    std::vector<std::string> sets = c.sets;
+    sets.push_back("output.file=\"" + out + "\"");
+    RunSpec spec = spec_of(scene_text(60, 0.6, 1e-3, 0.1, 5.0, 20.0), sets);
+    std::vector<ReplicaResult> runs;
+    for (std::size_t k = 0; k < c.replicas; ++k)
+      runs.push_back(run_replica(spec, spec.seed + k, opt));
+    ASSERT_TRUE(write_run_file(spec, runs, out));
+    {
+      H5Reader h(out);
+      for (std::size_t k = 0; k < c.replicas; ++k) {
+        const std::string g = "/checkpoint/replicas/" + std::to_string(k);
+        const std::string ts =
+            c.replicas > 1 ? "/replicas/" + std::to_string(k) + "/timeseries" : "/timeseries";
+        EXPECT_EQ(h.attr_string(g, "series"), ts) << c.name;
+        EXPECT_FALSE(h.exists(g + "/series/time")) << c.name;
+        EXPECT_EQ(h.exists(g + "/series/piston_dissipation"), !spec.ensemble->has_piston())
+            << c.name;
+      }
+    }
+    const RunFile f = read_run_file(out, true);
+    ASSERT_EQ(f.replicas.size(), c.replicas);
+    for (std::size_t k = 0; k < c.replicas; ++k)
+      EXPECT_TRUE(same_series(f.replicas[k], runs[k])) << c.name << " replica " << k;
+  }
+  // The earlier layout: the series copied under /checkpoint, no "series" attribute.
+  const std::string cv = dir.file("cv.h5");
+  const RunFile before = read_run_file(cv, true);
+  {
+    const hid_t file = H5Fopen(cv.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(file, 0);
+    EXPECT_GE(H5Adelete_by_name(file, "/checkpoint/replicas/0", "series", H5P_DEFAULT), 0);
+    for (const auto& [name, field] : kSeriesFields) {
+      (void)field;
+      if (std::string(name) == "piston_dissipation")
+        continue;
+      const std::string to = std::string("/checkpoint/replicas/0/series/") + name;
+      EXPECT_GE(H5Ocopy(file, (std::string("/timeseries/") + name).c_str(), file, to.c_str(),
+                        H5P_DEFAULT, H5P_DEFAULT),
+                0)
+          << name;
+    }
+    EXPECT_GE(H5Ldelete(file, "/timeseries/time", H5P_DEFAULT), 0);  // not read from there
+    H5Fclose(file);
+  }
+  const RunFile old = read_run_file(cv, true);
+  ASSERT_EQ(old.replicas.size(), 1u);
+  EXPECT_TRUE(same_series(old.replicas[0], before.replicas[0]));
+}
+
 // Every run records its CPU seconds beside its wall seconds, and its cost in force-pass
 // equivalents beside its force evaluations (for Euler the same count).
 TEST(Run, RecordsCpuSecondsAndForcePassEquivalents) {
