@@ -80,6 +80,9 @@ def test_h5md_layout(run_files):
         assert np.array_equal(f["particles/all/species"][()], result.final["species"])
         assert np.array_equal(f["particles/all/diameter"][()], result.final["diameters"])
         assert f["observables/strain/value"][-1] == result.final["strain"]
+        # How the file was made: the run's scene and the replica's seed in /parameters.
+        assert f["parameters"].attrs["scene"] == result.scene
+        assert f["parameters"].attrs["seed"] == result.seed == 2
     # The XYZ trajectory holds the same frames.
     ase_io = pytest.importorskip("ase.io")
     frames = ase_io.read(folder / "r.traj.xyz", index=":")
@@ -133,6 +136,8 @@ def test_a_resumed_run_continues_the_h5md_trajectory(tmp_path):
             for part in ("step", "time", "value"):
                 x, y = a[name][part][()], b[name][part][()]
                 assert x.shape == y.shape and x.tobytes() == y.tobytes(), name + "/" + part
+        with h5py.File(tmp_path / "cut.h5") as run_file:
+            assert b["parameters"].attrs["scene"] == run_file.attrs["scene"]
     assert whole.timeseries["time"][-1] == 4000.0
 
 
