@@ -232,10 +232,14 @@ std::unique_ptr<toml::node> to_toml(py::handle v, const std::string& key) {
       to_toml(item, key)->visit([&](auto&& node) { a->push_back(std::move(node)); });
     return a;
   }
+  // numpy scalars (numpy.float64 is a float, but numpy.int64, numpy.float32 and numpy.bool_
+  // are not int, float or bool) and arrays: their Python value, a number or a list.
+  if (py::hasattr(v, "dtype") && py::hasattr(v, "tolist"))
+    return to_toml(v.attr("tolist")(), key);
   if (py::hasattr(v, "__fspath__"))
     return std::make_unique<toml::value<std::string>>(
         py::module_::import("os").attr("fspath")(v).cast<std::string>());
-  // numpy scalars and other numbers
+  // other numbers
   if (py::hasattr(v, "__index__")) {
     const py::object index = py::reinterpret_steal<py::object>(PyNumber_Index(v.ptr()));
     if (!index)

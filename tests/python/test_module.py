@@ -338,6 +338,20 @@ def test_sweep_returns_the_collected_table(tmp_path):
         jamflow.sweep(path, out=tmp_path / "bad.sweep")
 
 
+def test_numpy_scalars_and_arrays_are_scene_values():
+    scene = jamflow.Scene(SMALL)
+    scene.set("shear.rate", np.float32(0.5))
+    assert scene.get("shear.rate") == 0.5
+    scene.set("shear.rate", np.array(2e-3))  # a 0-d array
+    assert scene.get("shear.rate") == 2e-3
+    scene.set("system.N", np.int32(80))
+    assert scene.get("system.N") == 80 and type(scene.get("system.N")) is int
+    scene.set("run.round_sample_every", np.bool_(True))  # a boolean, not the integer 1
+    assert scene.get("run.round_sample_every") is True
+    scene.update({"shear.rate": np.float64(1e-3), "system.seed": np.uint8(7)})
+    assert scene.get("system.seed") == 7
+
+
 def test_analyze_returns_plain_objects_and_raises_one_line_errors(tmp_path):
     # Pure hard-sphere data at two pressures: phi = phi_J - C J^b, mu = mu_J + C J^b.
     rows = ["N,P,gdot,phi,phi_err,mu,mu_err"]
