@@ -60,6 +60,30 @@ def test_mdanalysis_reads_the_trajectory(run_files):
     assert set(u.atoms.names) <= {"H", "He"}
     u.trajectory[-1]
     assert np.allclose(u.atoms.positions, result.final["positions"], atol=1e-4)
+    # No box from XYZ (its reader ignores the Lattice): why the guide sends MDAnalysis users to
+    # the H5MD file.
+    assert u.dimensions is None
+
+
+def test_mdanalysis_gets_the_box_from_the_h5md_file_as_the_guide_says(run_files):
+    # docs/guide/files.md, "MDAnalysis and the box": the final XYZ as topology (names), the H5MD
+    # file as trajectory (positions and box).
+    mda = pytest.importorskip("MDAnalysis")
+    folder, result = run_files
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        u = mda.Universe(str(folder / "r.final.xyz"), str(folder / "r.traj.h5md"),
+                         convert_units=False)
+    assert len(u.trajectory) == 5 and set(u.atoms.names) <= {"H", "He"}
+    u.trajectory[-1]
+    cell = result.final["cell"]
+    lengths = np.linalg.norm(cell, axis=1)
+    assert u.dimensions is not None
+    assert np.allclose(u.dimensions[:3], lengths, rtol=1e-5)
+    # gamma, the angle between a and b: the Lees-Edwards tilt.
+    gamma = np.degrees(np.arccos(cell[0] @ cell[1] / (lengths[0] * lengths[1])))
+    assert u.dimensions[5] == pytest.approx(gamma, abs=1e-3) and gamma < 90.0
+    assert np.allclose(u.atoms.positions, result.final["positions"], atol=1e-4)
 
 
 def test_h5md_layout(run_files):
