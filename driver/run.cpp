@@ -279,8 +279,8 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
     // The frames up to the checkpoint's last sample (k = 0, stride, 2 stride, ...) are kept.
     const std::int64_t keep =
         from ? std::int64_t(from->series.samples.size() - 1) / traj_stride + 1 : -1;
-    h5md = std::make_unique<H5mdTrajectory>(h5md_path + ".part",
-                                            from ? from->end.state : model.state(), keep);
+    h5md = std::make_unique<H5mdTrajectory>(
+        h5md_path + ".part", from ? from->end.state : model.state(), spec.scene_text, seed, keep);
   }
   if (traj_xyz) {
     traj_path = options.label + ".traj.xyz";

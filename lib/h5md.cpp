@@ -143,12 +143,48 @@ void write_frame(hid_t file, const std::string& name, std::int64_t frames, hid_t
         "write " + name);
 }
 
+// /parameters (H5MD's group for simulation parameters, created if missing): the attributes
+// `scene` (the run's scene, TOML) and `seed` (this replica's seed), replacing any there.
+void write_parameters(hid_t file, const std::string& scene, std::uint64_t seed,
+                      const std::string& path) {
+  const htri_t there = H5Lexists(file, "parameters", H5P_DEFAULT);
+  if (there < 0)
+    fail(path, "look for /parameters");
+  Id g(there > 0 ? H5Gopen2(file, "parameters", H5P_DEFAULT)
+                 : H5Gcreate2(file, "parameters", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+       H5Gclose);
+  if (!g.ok())
+    fail(path, "open or create /parameters");
+  for (const char* name : {"scene", "seed"}) {
+    const htri_t has = H5Aexists(g.get(), name);
+    if (has < 0 || (has > 0 && H5Adelete(g.get(), name) < 0))
+      fail(path, std::string("replace /parameters ") + name);
+  }
+  {
+    // Variable-length UTF-8, as the run file's scene: h5py reads it as str (not bytes).
+    Id type(H5Tcopy(H5T_C_S1), H5Tclose);
+    if (H5Tset_size(type.get(), H5T_VARIABLE) < 0 || H5Tset_cset(type.get(), H5T_CSET_UTF8) < 0)
+      fail(path, "make a string type");
+    Id space(H5Screate(H5S_SCALAR), H5Sclose);
+    Id a(H5Acreate2(g.get(), "scene", type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+    const char* text = scene.c_str();
+    if (!a.ok() || H5Awrite(a.get(), type.get(), &text) < 0)
+      fail(path, "write attribute scene");
+  }
+  Id space(H5Screate(H5S_SCALAR), H5Sclose);
+  Id a(H5Acreate2(g.get(), "seed", H5T_STD_U64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
+  if (!a.ok())
+    fail(path, "write attribute seed");
+  check(H5Awrite(a.get(), H5T_NATIVE_UINT64, &seed), path, "write seed");
+}
+
 const char* const kElements[] = {"/particles/all/position", "/particles/all/box/edges",
                                  "/observables/strain"};
 
 }  // namespace
 
 H5mdTrajectory::H5mdTrajectory(const std::string& path, const State& state,
+                               const std::string& scene, std::uint64_t seed,
                                std::int64_t keep_frames)
     : path_(path), n_(std::int64_t(state.size())) {
   hdf5_setup();
@@ -161,6 +197,7 @@ H5mdTrajectory::H5mdTrajectory(const std::string& path, const State& state,
       for (const char* part : {"/step", "/time", "/value"})
         write_frame(file_, std::string(e) + part, frames_, H5T_NATIVE_DOUBLE, nullptr, path_);
     }
+    write_parameters(file_, scene, seed, path);  // a file written before it had none
     return;
   }
   file_ = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
@@ -206,6 +243,7 @@ H5mdTrajectory::H5mdTrajectory(const std::string& path, const State& state,
         path);
   Id observables = group(file_, "observables", path);
   element(observables.get(), "strain", {}, path);
+  write_parameters(file_, scene, seed, path);
 }
 
 H5mdTrajectory::~H5mdTrajectory() {

@@ -5,8 +5,10 @@
 //   position   {step, time, value: frames x N x 3}, real space, wrapped into the cell
 //   species    N (0 = small, 1 = large), diameter N (time-independent)
 // and /observables/strain {step, time, value: frames}, the total strain (the tilt is only
-// known modulo remaps). Particles are in id order. Frames are appended as the run goes and
-// flushed to disk on flush(), so that a checkpoint can name how many frames are safe.
+// known modulo remaps), and /parameters with the attributes scene (the run's scene, TOML, as
+// the run file's /scene) and seed (the replica's seed), so the file says how it was made. Particles
+// are in id order. Frames are appended as the run goes and flushed to disk on flush(), so that a
+// checkpoint can name how many frames are safe.
 #pragma once
 #include <hdf5.h>
 
@@ -19,10 +21,12 @@ namespace jamflow {
 
 class H5mdTrajectory {
  public:
-  // Creates `path` for the particles of `state` (replacing any file there). With keep_frames
-  // >= 0, opens the existing file instead and keeps its first keep_frames frames (a run
-  // continued from a checkpoint). Throws IoError.
-  H5mdTrajectory(const std::string& path, const State& state, std::int64_t keep_frames = -1);
+  // Creates `path` for the particles of `state` (replacing any file there), with `scene` and
+  // `seed` in /parameters. With keep_frames >= 0, opens the existing file instead and keeps its
+  // first keep_frames frames (a run continued from a checkpoint; /parameters is written anew).
+  // Throws IoError.
+  H5mdTrajectory(const std::string& path, const State& state, const std::string& scene,
+                 std::uint64_t seed, std::int64_t keep_frames = -1);
   ~H5mdTrajectory();
   H5mdTrajectory(const H5mdTrajectory&) = delete;
   H5mdTrajectory& operator=(const H5mdTrajectory&) = delete;

@@ -13,8 +13,10 @@
 #include <pybind11/stl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <csignal>
 #include <cstdio>
@@ -232,10 +234,14 @@ std::unique_ptr<toml::node> to_toml(py::handle v, const std::string& key) {
       to_toml(item, key)->visit([&](auto&& node) { a->push_back(std::move(node)); });
     return a;
   }
+  // numpy scalars (numpy.float64 is a float, but numpy.int64, numpy.float32 and numpy.bool_
+  // are not int, float or bool) and arrays: their Python value, a number or a list.
+  if (py::hasattr(v, "dtype") && py::hasattr(v, "tolist"))
+    return to_toml(v.attr("tolist")(), key);
   if (py::hasattr(v, "__fspath__"))
     return std::make_unique<toml::value<std::string>>(
         py::module_::import("os").attr("fspath")(v).cast<std::string>());
-  // numpy scalars and other numbers
+  // other numbers
   if (py::hasattr(v, "__index__")) {
     const py::object index = py::reinterpret_steal<py::object>(PyNumber_Index(v.ptr()));
     if (!index)
@@ -581,64 +587,117 @@ void register_data_root() {
   }
 }
 
-// A CSV table as {column: numpy array (numbers; empty cells NaN) or list of str}.
-py::dict read_table(const std::string& path) {
-  std::ifstream in(path);
-  if (!in)
-    throw jamflow::IoError("cannot read table '" + path + "'");
-  auto split = [](const std::string& line) {
-    std::vector<std::string> cells;
-    std::string cell;
-    std::istringstream s(line);
-    while (std::getline(s, cell, ','))
-      cells.push_back(cell);
-    if (!line.empty() && line.back() == ',')
-      cells.emplace_back();
-    return cells;
-  };
-  std::string line;
-  std::getline(in, line);
-  const std::vector<std::string> header = split(line);
-  std::vector<std::vector<std::string>> columns(header.size());
-  while (std::getline(in, line)) {
-    if (line.empty())
-      continue;
-    auto cells = split(line);
-    cells.resize(header.size());
-    for (std::size_t c = 0; c < header.size(); ++c)
-      columns[c].push_back(cells[c]);
-  }
+// A table's text cells as {column: numpy array}: numbers (empty cells NaN) where every cell
+// is one, else str.
+py::dict table_columns(const std::vector<std::string>& header,
+                       const std::vector<std::vector<std::string>>& rows) {
+  auto numpy = py::module_::import("numpy");
   py::dict table;
   for (std::size_t c = 0; c < header.size(); ++c) {
     std::vector<double> numbers;
+    std::vector<std::string> texts;
     bool numeric = true;
-    for (const auto& cell : columns[c]) {
+    for (const auto& row : rows) {
+      const std::string& cell = row[c];
+      texts.push_back(cell);
+      if (!numeric)
+        continue;
       if (cell.empty()) {
         numbers.push_back(std::nan(""));
         continue;
       }
       char* end = nullptr;
       const double v = std::strtod(cell.c_str(), &end);
-      if (end == cell.c_str() || *end != '\0') {
-        numeric = false;
-        break;
-      }
+      numeric = end != cell.c_str() && *end == '\0';
       numbers.push_back(v);
     }
     if (numeric)
       table[py::str(header[c])] = array(numbers);
     else
-      table[py::str(header[c])] = py::cast(columns[c]);
+      table[py::str(header[c])] = numpy.attr("array")(py::cast(texts), py::arg("dtype") = "str");
   }
   return table;
 }
 
-py::dict sweep(py::object path, py::object out, int jobs, bool progress) {
-  const std::string file = py::module_::import("os").attr("fspath")(path).cast<std::string>();
-  const std::string out_dir =
-      out.is_none() ? std::string()
-                    : py::module_::import("os").attr("fspath")(out).cast<std::string>();
-  const jamflow::sweep::Plan plan = jamflow::sweep::load_plan(file, out_dir);
+// A grid's values for one key: a list, tuple, range, numpy array or other iterable (not a
+// string or a dict), each value as a scene value.
+toml::array grid_values(py::handle values, const std::string& key) {
+  if (py::hasattr(values, "dtype") && py::hasattr(values, "tolist"))
+    return grid_values(values.attr("tolist")(), key);
+  if (py::isinstance<py::str>(values) || py::isinstance<py::bytes>(values) ||
+      py::isinstance<py::dict>(values) || !py::isinstance<py::iterable>(values))
+    throw ConfigError("grid \"" + key + "\" = " + text_of(values) +
+                      " is not a list; allowed a list (or numpy array) of values");
+  toml::array a;
+  for (py::handle v : values)
+    to_toml(v, key)->visit([&](auto&& node) { a.push_back(std::move(node)); });
+  return a;
+}
+
+py::dict sweep(py::object source, py::object out, py::object grid, py::object replicas, int jobs,
+               bool progress, bool strict, py::object path) {
+  auto os = py::module_::import("os");
+  if (!path.is_none()) {  // the argument's name before grids
+    if (!source.is_none())
+      throw ConfigError(
+          "jamflow.sweep got both source and path; allowed one (path is source's "
+          "former name)");
+    source = path;
+  }
+  if (source.is_none())
+    throw ConfigError(
+        "jamflow.sweep needs a source; allowed a sweep file's path, or a scene "
+        "with grid={key: [values]}");
+  std::string out_dir = out.is_none() ? std::string() : os.attr("fspath")(out).cast<std::string>();
+  jamflow::sweep::Plan plan;
+  if (grid.is_none()) {
+    if (py::isinstance<PyScene>(source) || py::isinstance<py::dict>(source))
+      throw ConfigError(
+          "jamflow.sweep of a scene needs grid={key: [values]}; allowed a scene "
+          "with grid=, or a sweep file's path");
+    if (!replicas.is_none())
+      throw ConfigError("replicas = " + text_of(replicas) +
+                        " with a sweep file; allowed with grid= only (a sweep file sets "
+                        "[sweep] replicas)");
+    plan = jamflow::sweep::load_plan(os.attr("fspath")(source).cast<std::string>(), out_dir);
+  } else {
+    if (!py::isinstance<py::dict>(grid))
+      throw ConfigError("grid = " + text_of(grid) +
+                        " is not a dict; allowed {\"section.key\": [values], ...}");
+    const PyScene scene = PyScene::from_any(source);
+    jamflow::sweep::Grid axes;
+    for (auto [k, v] : grid.cast<py::dict>()) {
+      if (!py::isinstance<py::str>(k))
+        throw ConfigError("grid key " + text_of(k) + " is not a string; allowed scene keys " +
+                          "such as \"shear.rate\"");
+      const std::string key = k.cast<std::string>();
+      axes[key] = grid_values(v, key);
+    }
+    std::int64_t count = 0;  // the scene's [run] replicas
+    if (!replicas.is_none()) {
+      const py::object index =
+          py::isinstance<py::bool_>(replicas)
+              ? py::object()
+              : py::reinterpret_steal<py::object>(PyNumber_Index(replicas.ptr()));
+      PyErr_Clear();
+      count = index ? scene_integer(index, "replicas") : 0;
+      if (count < 1)
+        throw ConfigError("replicas = " + text_of(replicas) + "; allowed an integer in [1, 10000]");
+    }
+    std::string scratch;
+    if (out_dir.empty())
+      out_dir = scratch = py::module_::import("tempfile")
+                              .attr("mkdtemp")(py::arg("prefix") = "jamflow-sweep-")
+                              .cast<std::string>();
+    try {
+      plan = jamflow::sweep::make_plan(scene.scene(), axes, out_dir, count);
+    } catch (...) {
+      std::error_code ec;
+      if (!scratch.empty())
+        fs::remove(scratch, ec);  // still empty: nothing was written
+      throw;
+    }
+  }
   jamflow::sweep::EngineOptions o;
   o.jobs = jobs;
   o.quiet = !progress;
@@ -646,7 +705,6 @@ py::dict sweep(py::object path, py::object out, int jobs, bool progress) {
   std::atomic<int> signal{0};
   o.stop = &signal;
   std::atomic<bool> stop{false};
-  int code = 0;
   // The engine polls its own flag: raise it from the Python side's stop flag.
   std::jthread relay([&](std::stop_token token) {
     while (!token.stop_requested()) {
@@ -657,19 +715,39 @@ py::dict sweep(py::object path, py::object out, int jobs, bool progress) {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
   });
-  run_released([&] { code = jamflow::sweep::run_plan(plan, o); }, stop);
+  // Its exit status says no more than the table's status column, which is read below.
+  run_released([&] { (void)jamflow::sweep::run_plan(plan, o); }, stop);
   relay.request_stop();
-  const std::string table = (fs::path(plan.out_dir) / "table.csv").string();
-  const jamflow::sweep::Collected collected = jamflow::sweep::collect(plan, table);
-  if (code != 0) {
-    std::string why;
-    for (const auto& l : collected.left_out)
-      why += (why.empty() ? "" : "; ") + l;
-    throw jamflow::IntegrationError("sweep " + plan.name + ": some points did not finish (" + why +
-                                    "); their logs are in " + plan.out_dir + "/points");
+  // table.csv: the finished points, as `jamflow sweep --collect`.
+  jamflow::sweep::collect(plan, (fs::path(plan.out_dir) / "table.csv").string());
+  jamflow::sweep::PointTable t = jamflow::sweep::point_table(plan);
+  // Here the folder is absolute: the table is used away from the sweep's folder.
+  const auto folder = std::find(t.header.begin(), t.header.end(), "folder") - t.header.begin();
+  for (auto& row : t.rows)
+    row[std::size_t(folder)] =
+        fs::absolute(fs::path(plan.out_dir) / row[std::size_t(folder)]).lexically_normal().string();
+  std::string why;
+  std::size_t unfinished = 0;
+  for (std::size_t i = 0; i < t.status.size(); ++i) {
+    if (t.status[i].is_complete())
+      continue;
+    if (++unfinished <= 5)
+      why += (why.empty() ? "" : "; ") + plan.points[i].name + ": " + t.status[i].text();
   }
-  py::dict result = read_table(table);
-  return result;
+  if (unfinished > 5)
+    why += "; and " + std::to_string(unfinished - 5) + " more";
+  if (unfinished > 0) {
+    const std::string message =
+        "sweep " + plan.name + ": " + std::to_string(unfinished) + " of " +
+        std::to_string(plan.points.size()) + " points did not finish (" + why +
+        "); the table has them with their status and NaN results, their logs are in " +
+        plan.out_dir + "/points";
+    if (strict)
+      throw jamflow::IntegrationError(message);
+    if (PyErr_WarnEx(PyExc_RuntimeWarning, message.c_str(), 1) != 0)
+      throw py::error_already_set();  // warnings as errors
+  }
+  return table_columns(t.header, t.rows);
 }
 
 py::list sweep_points(py::object path) {
@@ -856,8 +934,8 @@ class _ProgressDisplay:
   io_error.attr("__doc__") = "A file that could not be read or written.";
   input_error.attr("__doc__") = "A scene or init file that cannot be read (an IoError).";
   integration_error.attr("__doc__") =
-      "A run that failed (the integration left the physical domain) or a sweep with points that "
-      "did not finish.";
+      "A run that failed (the integration left the physical domain), or with strict=True a "
+      "sweep with points that did not finish.";
   // One line, as the command line prints it.
   py::register_exception_translator([](std::exception_ptr p) {
     try {
@@ -975,10 +1053,31 @@ class _ProgressDisplay:
           [](PySimulation& s, double rate) { s.sim().set_shear_rate(rate); },
           "the shear rate gdot (settable: the next advance shears at the new rate)");
 
-  m.def("sweep", &sweep, py::arg("path"), py::arg("out") = py::none(), py::kw_only(),
-        py::arg("jobs") = 0, py::arg("progress") = false,
-        "Runs a sweep file as `jamflow sweep` does (finished points are kept and not rerun) "
-        "and returns its collected table: {column: numpy array or list of str}.");
+  m.def("sweep", &sweep, py::arg("source") = py::none(), py::arg("out") = py::none(), py::kw_only(),
+        py::arg("grid") = py::none(), py::arg("replicas") = py::none(), py::arg("jobs") = 0,
+        py::arg("progress") = false, py::arg("strict") = false, py::arg("path") = py::none(),
+        "Runs a sweep as `jamflow sweep` does (each point a `jamflow run`; finished points are "
+        "kept and not rerun) and returns a table of every point: {column: numpy array}, one "
+        "entry per point in point order.\n\n"
+        "source: a sweep file's path (TOML with [sweep]); or, with grid, the base scene (a "
+        "jamflow.Scene, a dict of sections, TOML text or a scene file's path). "
+        "grid: {\"section.key\": [values], ...}, the axes of [sweep.grid] (a Cartesian product, "
+        "keys in alphabetical order, the first varying slowest; \"section\": [dicts] varies a "
+        "whole section); values may be numpy arrays and numpy scalars, e.g. "
+        "grid={\"shear.rate\": numpy.logspace(-3, -1, 3)}. replicas: with grid, the replicas "
+        "per point (default: the scene's [run] replicas). out: the sweep's folder (points/, "
+        "manifest.toml, table.csv); None: a sweep file's <stem>.sweep beside it, and for a grid "
+        "a fresh folder made by tempfile.mkdtemp (jamflow-sweep-* in $TMPDIR or /tmp), kept, "
+        "whose points the folder column names. jobs: points at once (0: the cores). progress: "
+        "the engine's progress line on stderr. path: source's former name, still accepted.\n\n"
+        "The columns are those of `jamflow sweep --collect` (point, the varied keys, N, gdot, "
+        "phi, pressure, sigma_xy, eta, mu with _err, verdicts, cost, folder, here absolute) and "
+        "status: 'complete', or why a point has no results ('failed at t = ...: why', 'not "
+        "run', ...). Numeric columns are float arrays, NaN where a point has no value; text "
+        "columns are str arrays, so table['status'] == 'complete' selects the finished points. "
+        "Points that did not finish give one RuntimeWarning naming them (strict=True raises "
+        "IntegrationError instead). A bad scene, key or value in any point raises ConfigError "
+        "before anything runs. Ctrl-C stops the points as `jamflow sweep` does.");
   m.def("sweep_points", &sweep_points, py::arg("path"),
         "The points of a sweep file (checked), without running them.");
   m.def("analyze", &analyze, py::arg("kind"), py::arg("data"), py::arg("out") = py::none(),

@@ -75,11 +75,12 @@ void write_h5_table(const std::string& path, const std::vector<std::string>& hea
 
 }  // namespace
 
-Collected collect(const Plan& plan, const std::string& path) {
-  const std::string ext = fs::path(path).extension().string();
-  if (ext != ".csv" && ext != ".h5")
-    throw ConfigError("--collect '" + path + "': allowed a table file ending in .csv or .h5");
-  Collected out;
+namespace {
+
+// The table of collect (all_points false: the points complete in every replica) or of
+// point_table (every point, and the status column).
+PointTable build_table(const Plan& plan, bool all_points) {
+  PointTable out;
   const auto tasks = plan.tasks();
   std::vector<std::vector<const Task*>> of_point(plan.points.size());
   for (const auto& t : tasks)
@@ -93,6 +94,8 @@ Collected collect(const Plan& plan, const std::string& path) {
     // CPU time was recorded, and its wall seconds stand in.
     double wall_seconds = 0.0, cpu_seconds = 0.0, force_evaluations = 0.0, equivalents = 0.0;
     bool cpu_from_wall = false;
+    // Complete, or the status of the first replica that is not (then no results).
+    RunStatus status = RunStatus::complete();
   };
   std::vector<Row> rows;
   bool all_cp = true;
@@ -103,6 +106,7 @@ Collected collect(const Plan& plan, const std::string& path) {
     double wall = 0.0, cpu = 0.0, evaluations = 0.0, equivalents = 0.0;  // summed: the cost
     bool cpu_from_wall = false;
     std::string why;
+    RunStatus point_status = RunStatus::complete();
     for (const Task* t : ts) {
       RunStatus status = RunStatus::not_run();
       const TaskState s = probe(plan, *t, &status);
@@ -114,6 +118,7 @@ Collected collect(const Plan& plan, const std::string& path) {
                   .append(s == TaskState::kDone ? "finished without a summary" : state_name(s));
         if (!detail.empty())
           why.append(" (").append(detail).append(")");
+        point_status = status;
         break;
       }
       const ReplicaResult res = read_run_file(plan.task_file(*t), false).replicas.front();
@@ -128,6 +133,12 @@ Collected collect(const Plan& plan, const std::string& path) {
     }
     if (!why.empty()) {
       out.left_out.push_back(p.name + ": " + why);
+      if (!all_points)
+        continue;
+      Row row{&p, parse_run_spec(plan.task_scene(*ts.front())), {}};
+      row.status = point_status;
+      all_cp = all_cp && row.spec.ensemble->imposed_pressure().has_value();
+      rows.push_back(std::move(row));
       continue;
     }
     Row row{&p, parse_run_spec(plan.task_scene(*ts.front())), {}};
@@ -167,9 +178,12 @@ Collected collect(const Plan& plan, const std::string& path) {
     header.push_back(o + "_block_err");
     header.push_back(o + "_replica_err");
   }
+  if (all_points)
+    header.push_back("status");
 
-  std::vector<std::vector<std::string>> table;
+  std::vector<std::vector<std::string>>& table = out.rows;
   for (const auto& row : rows) {
+    const bool complete = row.status.is_complete();
     const auto& v = row.sum.values;
     auto get = [&](const std::string& k) {
       const auto it = v.find(k);
@@ -192,21 +206,43 @@ Collected collect(const Plan& plan, const std::string& path) {
     }
     cells.push_back(cell(get("J")));
     cells.push_back(cell(get("energy_balance")));
-    cells.push_back(std::to_string(several ? static_cast<long long>(get("replicas")) : 1LL));
+    cells.push_back(
+        !complete ? "" : std::to_string(several ? static_cast<long long>(get("replicas")) : 1LL));
     for (const char* verdict : {"steady", "stable", "decorrelated"})
       cells.push_back(cell(get(verdict)));
-    cells.push_back(cell(row.wall_seconds));
-    cells.push_back(cell(row.cpu_seconds));
-    cells.push_back(row.cpu_from_wall ? "1" : "0");
-    cells.push_back(cell(row.force_evaluations));
-    cells.push_back(cell(row.equivalents));
+    const double none = std::nan("");  // the cost of a point without results: not summed
+    cells.push_back(cell(complete ? row.wall_seconds : none));
+    cells.push_back(cell(complete ? row.cpu_seconds : none));
+    cells.push_back(!complete ? "" : row.cpu_from_wall ? "1" : "0");
+    cells.push_back(cell(complete ? row.force_evaluations : none));
+    cells.push_back(cell(complete ? row.equivalents : none));
     cells.push_back(csv_text(fs::relative(plan.point_dir(*row.point), plan.out_dir).string()));
     for (const auto& o : observables) {
       cells.push_back(cell(get(o + "_err")));
       cells.push_back(cell(several ? get(o + "_replica_err") : std::nan("")));
     }
+    if (all_points)
+      cells.push_back(row.status.text());
+    out.status.push_back(row.status);
     table.push_back(std::move(cells));
   }
+  out.header = std::move(header);
+  return out;
+}
+
+}  // namespace
+
+PointTable point_table(const Plan& plan) {
+  return build_table(plan, true);
+}
+
+Collected collect(const Plan& plan, const std::string& path) {
+  const std::string ext = fs::path(path).extension().string();
+  if (ext != ".csv" && ext != ".h5")
+    throw ConfigError("--collect '" + path + "': allowed a table file ending in .csv or .h5");
+  const PointTable t = build_table(plan, false);
+  const auto& header = t.header;
+  const auto& table = t.rows;
   if (ext == ".csv") {
     std::ostringstream os;
     for (std::size_t i = 0; i < header.size(); ++i)
@@ -221,7 +257,9 @@ Collected collect(const Plan& plan, const std::string& path) {
   } else {
     write_h5_table(path, header, table);
   }
-  out.rows = rows.size();
+  Collected out;
+  out.rows = table.size();
+  out.left_out = t.left_out;
   return out;
 }
 

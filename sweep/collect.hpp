@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "driver/run_status.hpp"
 #include "sweep/plan.hpp"
 
 namespace jamflow::sweep {
@@ -26,5 +27,18 @@ struct Collected {
 // `path` ends in .csv, or in .h5 for the same table as HDF5 (numeric columns are datasets
 // /table/<column>, text columns string attributes of /table). Written atomically.
 Collected collect(const Plan& plan, const std::string& path);
+
+// Every point of the sweep, one row per point in point order, whether it finished or not: the
+// columns of collect() and last `status`, the point's RunStatus text: "complete", or that of
+// its first replica that is not ("failed at t = ...: why", "not run", "interrupted at t = ...",
+// "budget: stopped at t = ..."). A point that is not complete has the cells its scene gives
+// (point, the varied keys, ensemble, N, P, gdot, folder) and empty ones for every result.
+struct PointTable {
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;  // cells as text, "" where there is no value
+  std::vector<RunStatus> status;               // per row, typed
+  std::vector<std::string> left_out;           // as Collected::left_out
+};
+PointTable point_table(const Plan& plan);
 
 }  // namespace jamflow::sweep

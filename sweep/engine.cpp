@@ -76,6 +76,7 @@ int run_plan(const Plan& plan, const EngineOptions& o) {
 }
 
 std::string write_slurm_script(const Plan& plan, SlurmOptions options) {
+  check_slurm_plan(plan);
   check_slurm_time(options.time);
   if (options.exe.empty())
     options.exe = jamflow_exe();

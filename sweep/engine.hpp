@@ -35,7 +35,8 @@ void install_signal_handlers();
 // this process's share is finished, 1 when some failed, 128 + the signal when stopped.
 int run_plan(const Plan& plan, const EngineOptions& options);
 
-// Writes <out_dir>/sweep.sbatch for the plan's sweep file and returns its path.
+// Writes <out_dir>/sweep.sbatch for the plan's sweep file and returns its path; a plan without
+// a sweep file (make_plan) is a ConfigError, before anything is written.
 std::string write_slurm_script(const Plan& plan, SlurmOptions options);
 
 // The jamflow binary that runs tasks: $JAMFLOW_EXE if set (tests that are not the jamflow

@@ -322,7 +322,8 @@ void Coordinator::write_manifest() {
   }
   toml::table root;
   toml::table head;
-  head.insert("file", fs::absolute(plan_.path).lexically_normal().string());
+  if (!plan_.path.empty())  // a plan built in code (make_plan) has no sweep file
+    head.insert("file", fs::absolute(plan_.path).lexically_normal().string());
   head.insert("points", static_cast<std::int64_t>(plan_.points.size()));
   head.insert("replicas", plan_.replicas);
   toml::array axes;

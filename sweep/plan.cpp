@@ -224,41 +224,21 @@ std::vector<Task> Plan::tasks() const {
   return out;
 }
 
-Plan parse_plan(const std::string& text, const std::string& source, const std::string& base_dir,
-                const std::string& out_dir) {
-  const Scene file = Scene::parse(text, source);
-  file.check_sections({"sweep", "scene"});
-  const toml::table* sw = file.table("sweep");
-  if (!sw)
-    throw ConfigError(source + ": no [sweep] section; allowed a sweep file with [sweep]");
-  for (const auto& [k, v] : *sw) {
-    const std::string key(k.str());
-    if (key != "scene" && key != "replicas" && key != "grid" && key != "zip" &&
-        key != "names_from" && key != "names")
-      throw ConfigError(source + ": unknown key [sweep] " + key +
-                        "; allowed scene, replicas, grid, zip, names_from, names");
-  }
-  Plan plan;
-  plan.path = source;
-  plan.name = fs::path(source).stem().string();
-  const fs::path base(base_dir.empty() ? "." : base_dir);
-  plan.out_dir =
-      out_dir.empty() ? (base / (plan.name + ".sweep")).lexically_normal().string() : out_dir;
+namespace {
 
-  // The base scene: a file (relative to the sweep file) or the inline [scene] table.
-  const toml::node* scene_key = sw->get("scene");
-  if (scene_key && file.table("scene"))
-    throw ConfigError(source + ": both [sweep] scene and a [scene] table; allowed one of them");
-  Scene scene = load_base_scene(scene_key, file.table("scene"), base.string(), source,
-                                "[sweep] scene", "[scene]", "the sweep file");
-
+// The expansion of a [sweep] table's replicas, grid, zip, names_from and names over the base
+// `scene` into plan.replicas, plan.axes and plan.points, each point checked as `jamflow run`
+// checks a scene: one for sweep files (parse_plan) and plans built in code (make_plan). Errors
+// name `source`; a relative system.init among the values is taken relative to `base`.
+void expand(Plan& plan, const Scene& scene, const toml::table& sw, const std::string& source,
+            const fs::path& base) {
   // Replicas: [sweep] replicas, else the scene's [run] replicas, else 1.
   plan.replicas = 1;
   if (const toml::table* run = scene.table("run")) {
     if (const toml::node* r = run->get("replicas"); r && r->is_integer())
       plan.replicas = r->as_integer()->get();
   }
-  if (const toml::node* r = sw->get("replicas")) {
+  if (const toml::node* r = sw.get("replicas")) {
     if (!r->is_integer() || r->as_integer()->get() < 1 || r->as_integer()->get() > 10000) {
       throw ConfigError(source + ": [sweep] replicas = " + value_text(*r) +
                         "; allowed an integer in [1, 10000]");
@@ -267,12 +247,12 @@ Plan parse_plan(const std::string& text, const std::string& source, const std::s
   }
 
   std::vector<Axis> grid, zip;
-  if (const toml::node* g = sw->get("grid")) {
+  if (const toml::node* g = sw.get("grid")) {
     if (!g->is_table())
       throw ConfigError(source + ": [sweep] grid must be a table [sweep.grid]");
     grid = read_axes(*g->as_table(), source + ": [sweep.grid]", true);
   }
-  if (const toml::node* z = sw->get("zip")) {
+  if (const toml::node* z = sw.get("zip")) {
     if (!z->is_table())
       throw ConfigError(source + ": [sweep] zip must be a table [sweep.zip]");
     // A zip's lists may repeat values (points are told apart by all of them together).
@@ -299,7 +279,7 @@ Plan parse_plan(const std::string& text, const std::string& source, const std::s
   // The keys that name points: all varied keys, or those of [sweep] names_from (which must
   // still tell every point apart; checked below).
   std::set<std::string> naming(keys.begin(), keys.end());
-  if (const toml::node* nf = sw->get("names_from")) {
+  if (const toml::node* nf = sw.get("names_from")) {
     const auto* arr = nf->as_array();
     if (!arr || arr->empty())
       throw ConfigError(source + ": [sweep] names_from: allowed a non-empty list of varied keys");
@@ -314,8 +294,8 @@ Plan parse_plan(const std::string& text, const std::string& source, const std::s
   }
   // Or the points' names given one by one, in point order (how a study names its points).
   std::vector<std::string> given_names;
-  if (const toml::node* gn = sw->get("names")) {
-    if (sw->get("names_from"))
+  if (const toml::node* gn = sw.get("names")) {
+    if (sw.get("names_from"))
       throw ConfigError(source + ": both [sweep] names and names_from; allowed one of them");
     const auto* arr = gn->as_array();
     if (!arr || arr->empty())
@@ -418,6 +398,76 @@ Plan parse_plan(const std::string& text, const std::string& source, const std::s
       throw ConfigError("sweep point " + p.name + ": " + e.what());
     }
   }
+}
+
+}  // namespace
+
+Plan parse_plan(const std::string& text, const std::string& source, const std::string& base_dir,
+                const std::string& out_dir) {
+  const Scene file = Scene::parse(text, source);
+  file.check_sections({"sweep", "scene"});
+  const toml::table* sw = file.table("sweep");
+  if (!sw)
+    throw ConfigError(source + ": no [sweep] section; allowed a sweep file with [sweep]");
+  for (const auto& [k, v] : *sw) {
+    const std::string key(k.str());
+    if (key != "scene" && key != "replicas" && key != "grid" && key != "zip" &&
+        key != "names_from" && key != "names")
+      throw ConfigError(source + ": unknown key [sweep] " + key +
+                        "; allowed scene, replicas, grid, zip, names_from, names");
+  }
+  Plan plan;
+  plan.path = source;
+  plan.name = fs::path(source).stem().string();
+  const fs::path base(base_dir.empty() ? "." : base_dir);
+  plan.out_dir =
+      out_dir.empty() ? (base / (plan.name + ".sweep")).lexically_normal().string() : out_dir;
+
+  // The base scene: a file (relative to the sweep file) or the inline [scene] table.
+  const toml::node* scene_key = sw->get("scene");
+  if (scene_key && file.table("scene"))
+    throw ConfigError(source + ": both [sweep] scene and a [scene] table; allowed one of them");
+  Scene scene = load_base_scene(scene_key, file.table("scene"), base.string(), source,
+                                "[sweep] scene", "[scene]", "the sweep file");
+  expand(plan, scene, *sw, source, base);
+  return plan;
+}
+
+Plan make_plan(const Scene& scene, const Grid& grid, const std::string& out_dir,
+               std::int64_t replicas) {
+  if (out_dir.empty())
+    throw ConfigError("a sweep without a sweep file needs an output folder; allowed a folder name");
+  Plan plan;  // path stays empty: no sweep file
+  fs::path out = fs::path(out_dir).lexically_normal();
+  if (!out.has_filename())
+    out = out.parent_path();
+  plan.name = out.filename().string();
+  if (plan.name.size() > 6 && plan.name.ends_with(".sweep"))
+    plan.name.resize(plan.name.size() - 6);
+  if (plan.name.empty() || plan.name == "." || plan.name == "..")
+    plan.name = "sweep";
+  plan.out_dir = out_dir;
+  // The same [sweep] table a file would hold: grid and replicas.
+  toml::table sw;
+  toml::table axes;
+  for (const auto& [key, values] : grid) {
+    toml::array a = values;
+    // Tables (whole sections) inline, as a file's [{...}, ...] are: a point's scene then prints
+    // as the file's point does, so that either resumes the other's folder (prepare_out_dir).
+    for (auto& v : a) {
+      if (auto* t = v.as_table())
+        t->is_inline(true);
+    }
+    axes.insert(key, std::move(a));
+  }
+  sw.insert("grid", std::move(axes));
+  if (replicas != 0)
+    sw.insert("replicas", replicas);
+  // A relative system.init (in the scene or among the values) is where this process runs.
+  const fs::path here = fs::current_path();
+  Scene base = scene;
+  anchor_init(base, here);
+  expand(plan, base, sw, "the grid", here);
   return plan;
 }
 

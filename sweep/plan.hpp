@@ -16,6 +16,7 @@
 // slowest, the zip comes last, and a point's name lists its values in that order.
 #pragma once
 #include <cstdint>
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -45,8 +46,8 @@ struct Task {
 };
 
 struct Plan {
-  std::string path;     // the sweep file
-  std::string name;     // its stem
+  std::string path;     // the sweep file; empty for a plan built in code (make_plan)
+  std::string name;     // its stem (make_plan: the output folder's name without .sweep)
   std::string out_dir;  // where points/ and the manifest go
   std::int64_t replicas = 1;
   std::vector<std::string> axes;  // varied keys, in the order of the names
@@ -72,6 +73,20 @@ Plan load_plan(const std::string& path, const std::string& out_dir = {});
 // The same from text (tests); `base_dir` resolves a relative scene path.
 Plan parse_plan(const std::string& text, const std::string& source, const std::string& base_dir,
                 const std::string& out_dir);
+
+// The axes of a plan built in code: scene key -> values, as [sweep.grid] holds them ("section.key"
+// -> numbers, strings or booleans; "section" -> inline tables, each a whole section). Keys are
+// taken in alphabetical order, as a file's.
+using Grid = std::map<std::string, toml::array>;
+
+// A plan from a scene and a grid, without a sweep file: expanded, named and checked as
+// parse_plan does a [sweep.grid] of the same axes (the same points, names and errors, which
+// name "the grid"). It has no path, so its manifest names no file and Slurm, which reruns the
+// sweep file on the nodes, refuses it. `out_dir` is required; the plan's name is its last part
+// without ".sweep". `replicas`: 0 for the scene's [run] replicas, else in [1, 10000]. A relative
+// system.init, in the scene or among the values, is taken relative to the current folder.
+Plan make_plan(const Scene& scene, const Grid& grid, const std::string& out_dir,
+               std::int64_t replicas = 0);
 
 // A base scene named by a file key (`file_key`: a path relative to `dir`) or given as an inline
 // table, as sweep and compare files name theirs; a relative `system.init` in it is made

@@ -72,7 +72,16 @@ std::string batch_script(const BatchJob& job, const SlurmOptions& o) {
   return s;
 }
 
+void check_slurm_plan(const Plan& plan) {
+  if (plan.path.empty())
+    throw ConfigError("sweep " + plan.name +
+                      " has no sweep file (it was built from a scene and a grid); Slurm's array "
+                      "tasks rerun `jamflow sweep FILE` on the nodes, so allowed a sweep file "
+                      "(its grid as [sweep.grid]) for Slurm");
+}
+
 std::string slurm_script(const Plan& plan, const SlurmOptions& o) {
+  check_slurm_plan(plan);
   const std::size_t tasks = plan.tasks().size();
   const int size =
       o.array_size > 0 ? o.array_size : static_cast<int>(std::min<std::size_t>(tasks, 1000));

@@ -19,8 +19,13 @@ struct SlurmOptions {
   std::string exe;           // the jamflow binary
 };
 
-// The script's text. Paths in it are absolute.
+// The script's text. Paths in it are absolute. A plan without a sweep file (make_plan) is a
+// ConfigError: the array tasks run `jamflow sweep FILE` on the nodes.
 std::string slurm_script(const Plan& plan, const SlurmOptions& options);
+
+// The ConfigError slurm_script throws for a plan without a sweep file, thrown here too (so
+// callers refuse before they write anything).
+void check_slurm_plan(const Plan& plan);
 
 // One batch job (a sweep's array, or `jamflow study paper` on MPI ranks): the #SBATCH header,
 // then `command` in the background ($exe is options.exe). Slurm's TERM before the time limit

@@ -1,5 +1,6 @@
 // Tests for the HDF5 layer (lib/h5.hpp): round trip of datasets and attributes, the
-// write-to-.part-then-rename protocol, and errors for bad shapes and missing objects.
+// write-to-.part-then-rename protocol, and errors for bad shapes and missing objects; and the
+// H5MD trajectory's /parameters (lib/h5md.hpp).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -11,6 +12,8 @@
 
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
+#include "lib/h5md.hpp"
+#include "tests/two_spheres.hpp"
 
 namespace jamflow {
 namespace {
@@ -228,6 +231,40 @@ TEST_F(H5Test, UnopenableFilesThrowIoError) {
   } catch (const IoError& e) {
     EXPECT_NE(std::string(e.what()).find(bad_dir + ".part"), std::string::npos) << e.what();
   }
+}
+
+// An H5MD trajectory says how it was made: /parameters (H5MD's group for simulation
+// parameters) holds the run's scene and the replica's seed; a trajectory written before it had
+// none gets it when it is continued.
+TEST_F(H5Test, H5mdTrajectoryHoldsTheSceneInParameters) {
+  const std::string path = file("run.traj.h5md");
+  const State s = fixtures::two_spheres(0.9);
+  {
+    H5mdTrajectory t(path, s, "[shear]\nrate = 0.01\n", 7);
+    t.append(s, 0, 0.0);
+    t.close();
+  }
+  {
+    H5Reader r(path);
+    EXPECT_EQ(r.attr_string("/parameters", "scene"), "[shear]\nrate = 0.01\n");
+    EXPECT_EQ(r.attr_int("/parameters", "seed"), 7);
+  }
+  {  // as a file written before /parameters
+    const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(f, 0);
+    EXPECT_GE(H5Ldelete(f, "/parameters", H5P_DEFAULT), 0);
+    H5Fclose(f);
+    EXPECT_FALSE(H5Reader(path).exists("/parameters"));
+  }
+  {
+    H5mdTrajectory t(path, s, "[shear]\nrate = 0.02\n", 8, 1);
+    t.append(s, 1, 1.0);
+    t.close();
+  }
+  H5Reader r(path);
+  EXPECT_EQ(r.attr_string("/parameters", "scene"), "[shear]\nrate = 0.02\n");
+  EXPECT_EQ(r.attr_int("/parameters", "seed"), 8);
+  EXPECT_EQ(r.dims("/particles/all/position/value"), (std::vector<std::size_t>{2, 2, 3}));
 }
 
 }  // namespace

@@ -60,6 +60,30 @@ def test_mdanalysis_reads_the_trajectory(run_files):
     assert set(u.atoms.names) <= {"H", "He"}
     u.trajectory[-1]
     assert np.allclose(u.atoms.positions, result.final["positions"], atol=1e-4)
+    # No box from XYZ (its reader ignores the Lattice): why the guide sends MDAnalysis users to
+    # the H5MD file.
+    assert u.dimensions is None
+
+
+def test_mdanalysis_gets_the_box_from_the_h5md_file_as_the_guide_says(run_files):
+    # docs/guide/files.md, "MDAnalysis and the box": the final XYZ as topology (names), the H5MD
+    # file as trajectory (positions and box).
+    mda = pytest.importorskip("MDAnalysis")
+    folder, result = run_files
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        u = mda.Universe(str(folder / "r.final.xyz"), str(folder / "r.traj.h5md"),
+                         convert_units=False)
+    assert len(u.trajectory) == 5 and set(u.atoms.names) <= {"H", "He"}
+    u.trajectory[-1]
+    cell = result.final["cell"]
+    lengths = np.linalg.norm(cell, axis=1)
+    assert u.dimensions is not None
+    assert np.allclose(u.dimensions[:3], lengths, rtol=1e-5)
+    # gamma, the angle between a and b: the Lees-Edwards tilt.
+    gamma = np.degrees(np.arccos(cell[0] @ cell[1] / (lengths[0] * lengths[1])))
+    assert u.dimensions[5] == pytest.approx(gamma, abs=1e-3) and gamma < 90.0
+    assert np.allclose(u.atoms.positions, result.final["positions"], atol=1e-4)
 
 
 def test_h5md_layout(run_files):
@@ -80,6 +104,9 @@ def test_h5md_layout(run_files):
         assert np.array_equal(f["particles/all/species"][()], result.final["species"])
         assert np.array_equal(f["particles/all/diameter"][()], result.final["diameters"])
         assert f["observables/strain/value"][-1] == result.final["strain"]
+        # How the file was made: the run's scene and the replica's seed in /parameters.
+        assert f["parameters"].attrs["scene"] == result.scene
+        assert f["parameters"].attrs["seed"] == result.seed == 2
     # The XYZ trajectory holds the same frames.
     ase_io = pytest.importorskip("ase.io")
     frames = ase_io.read(folder / "r.traj.xyz", index=":")
@@ -133,6 +160,8 @@ def test_a_resumed_run_continues_the_h5md_trajectory(tmp_path):
             for part in ("step", "time", "value"):
                 x, y = a[name][part][()], b[name][part][()]
                 assert x.shape == y.shape and x.tobytes() == y.tobytes(), name + "/" + part
+        with h5py.File(tmp_path / "cut.h5") as run_file:
+            assert b["parameters"].attrs["scene"] == run_file.attrs["scene"]
     assert whole.timeseries["time"][-1] == 4000.0
 
 

@@ -329,13 +329,102 @@ def test_sweep_returns_the_collected_table(tmp_path):
     assert len(table["point"]) == 2
     assert isinstance(table["eta"], np.ndarray) and np.all(np.isfinite(table["eta"]))
     assert same_bits(table["gdot"], np.array([1e-1, 1e-2]))
+    assert list(table["status"]) == ["complete", "complete"]
     # Each point is the run of its scene.
     one = jamflow.run(points[1]["scene"])
     assert np.isclose(table["eta"][1], one.summary["eta"], rtol=1e-12)
+    # The argument's former name still works (the finished points are kept, not rerun).
+    again = jamflow.sweep(path=path, out=tmp_path / "two.sweep")
+    assert same_bits(again["eta"], table["eta"])
     # A bad point is the command line's one-line error.
     path.write_text(SWEEP.replace("phi = 0.62", "phi = 2.0"))
     with pytest.raises(jamflow.ConfigError, match=r"phi"):
         jamflow.sweep(path, out=tmp_path / "bad.sweep")
+
+
+# At constant pressure: a piston friction of 1e-6 collapses the cell in the first steps, a
+# failed run (status "failed at t = ...") within a fraction of a second.
+PISTON = dict(SMALL, ensemble={"kind": "constant_pressure", "pressure": 1e-2, "xi_V": 1.0},
+              run={"t_eq": 2.0, "t_av": 8.0, "sample_every": 1.0, "blocks": 2})
+
+
+def test_sweep_of_a_scene_and_a_grid_returns_every_point_failed_ones_too(tmp_path):
+    rates = np.logspace(-2, -1, 2)  # numpy values are scene values
+    grid = {"ensemble.xi_V": [1.0, 1e-6], "shear.rate": rates}
+    out = tmp_path / "grid.sweep"
+    with pytest.warns(RuntimeWarning, match="2 of 4 points did not finish") as caught:
+        table = jamflow.sweep(jamflow.Scene(PISTON), out, grid=grid, jobs=2)
+    assert all(len(column) == 4 for column in table.values())
+    # The first key varies slowest; the varied keys are columns, the numpy values exactly.
+    assert same_bits(table["shear.rate"], np.concatenate([rates, rates]))
+    assert same_bits(table["ensemble.xi_V"], np.array([1.0, 1.0, 1e-6, 1e-6]))
+    status = table["status"]
+    assert list(status[:2]) == ["complete", "complete"]
+    assert all(s.startswith("failed at t = ") for s in status[2:]), status
+    assert np.all(np.isfinite(table["eta"][:2])) and np.all(np.isnan(table["eta"][2:]))
+    assert np.all(np.isnan(table["replicas"][2:]))
+    assert same_bits(table["gdot"], table["shear.rate"])  # the scene's columns, failed or not
+    message = str(caught[0].message)
+    for name in table["point"][2:]:
+        assert name in message
+    # The folder column is absolute; the manifest names no sweep file (there is none).
+    folder = table["folder"][0]
+    assert os.path.isabs(folder) and os.path.exists(os.path.join(folder, "r0.h5"))
+    import tomllib
+    manifest = tomllib.loads((out / "manifest.toml").read_text())
+    assert "file" not in manifest["sweep"] and manifest["sweep"]["points"] == 4
+    # strict: the failed points raise, naming them (the finished ones are not rerun).
+    with pytest.raises(jamflow.IntegrationError, match="did not finish") as err:
+        jamflow.sweep(PISTON, out, grid=grid, strict=True)
+    assert table["point"][2] in str(err.value)
+    # The same grid from a sweep file gives the same points.
+    sweep_file = tmp_path / "same.toml"
+    sweep_file.write_text('[sweep]\n[sweep.grid]\n"ensemble.xi_V" = [1.0, 1e-6]\n'
+                          f'"shear.rate" = [{rates[0]!r}, {rates[1]!r}]\n'
+                          '[scene]\n' + jamflow.Scene(PISTON).text.replace("[", "[scene."))
+    assert [p["name"] for p in jamflow.sweep_points(sweep_file)] == list(table["point"])
+
+
+def test_sweep_of_a_grid_without_out_uses_a_fresh_temporary_folder(tmp_path, monkeypatch):
+    # tempfile's folder is this test's own, so nothing outside it is touched.
+    import tempfile
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    table = jamflow.sweep(SMALL, grid={"shear.rate": [1e-2]}, replicas=2)
+    folder = table["folder"][0]  # <sweep folder>/points/<point>
+    sweep_folder = os.path.dirname(os.path.dirname(folder))
+    assert os.path.dirname(sweep_folder) == str(tmp_path)
+    assert os.path.basename(sweep_folder).startswith("jamflow-sweep-")
+    assert list(table["status"]) == ["complete"] and table["replicas"][0] == 2
+    assert os.path.exists(os.path.join(folder, "r1.h5"))
+
+
+def test_sweep_arguments_are_checked():
+    with pytest.raises(jamflow.ConfigError, match="needs grid"):
+        jamflow.sweep(SMALL)
+    with pytest.raises(jamflow.ConfigError, match="not a dict"):
+        jamflow.sweep(SMALL, grid=[1e-2])
+    with pytest.raises(jamflow.ConfigError, match="not a list"):
+        jamflow.sweep(SMALL, grid={"shear.rate": 1e-2})
+    with pytest.raises(jamflow.ConfigError, match="appears twice"):
+        jamflow.sweep(SMALL, grid={"shear.rate": [1e-2, 1e-2]})
+    with pytest.raises(jamflow.ConfigError, match="replicas = 0"):
+        jamflow.sweep(SMALL, grid={"shear.rate": [1e-2]}, replicas=0)
+    with pytest.raises(jamflow.ConfigError, match="with grid= only"):
+        jamflow.sweep("any.toml", replicas=2)
+
+
+def test_numpy_scalars_and_arrays_are_scene_values():
+    scene = jamflow.Scene(SMALL)
+    scene.set("shear.rate", np.float32(0.5))
+    assert scene.get("shear.rate") == 0.5
+    scene.set("shear.rate", np.array(2e-3))  # a 0-d array
+    assert scene.get("shear.rate") == 2e-3
+    scene.set("system.N", np.int32(80))
+    assert scene.get("system.N") == 80 and type(scene.get("system.N")) is int
+    scene.set("run.round_sample_every", np.bool_(True))  # a boolean, not the integer 1
+    assert scene.get("run.round_sample_every") is True
+    scene.update({"shear.rate": np.float64(1e-3), "system.seed": np.uint8(7)})
+    assert scene.get("system.seed") == 7
 
 
 def test_analyze_returns_plain_objects_and_raises_one_line_errors(tmp_path):

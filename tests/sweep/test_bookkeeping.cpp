@@ -1,5 +1,6 @@
 // The sweep's bookkeeping (Coordinator): what it writes per task does not grow with the sweep,
-// and its manifest shows the work another sweep process finished on the same folder.
+// its manifest shows the work another sweep process finished on the same folder, and names the
+// sweep file only when there is one.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -135,6 +136,30 @@ TEST(SweepBookkeeping, ManifestShowsTasksFinishedByAnotherProcess) {
   for (std::size_t at = 0; (at = manifest.find("state = 'done'", at)) != std::string::npos; ++at)
     ++done;
   EXPECT_EQ(done, 3u) << manifest;
+}
+
+// A plan built in code (make_plan) has no sweep file: its manifest has no `file` entry, where a
+// file's plan names its file.
+TEST(SweepBookkeeping, ManifestNamesNoFileForAPlanBuiltInCode) {
+  TempDir made_dir, file_dir;
+  const Plan file = plan_of(2, file_dir.path.string());
+  Grid grid;
+  grid["shear.rate"] = toml::array{1e-3, 2e-3};
+  Scene scene = file.points.front().scene;
+  const Plan made = make_plan(scene, grid, made_dir.path.string());
+  for (const Plan* plan : {&made, &file}) {
+    prepare_out_dir(*plan);
+    Coordinator co(*plan, {}, 1, true);
+    co.write_manifest();
+  }
+  const toml::table m = toml::parse(read_all(made_dir.path / "manifest.toml"));
+  const toml::table f = toml::parse(read_all(file_dir.path / "manifest.toml"));
+  ASSERT_NE(m["sweep"].as_table(), nullptr);
+  EXPECT_EQ(m["sweep"]["file"].node(), nullptr);
+  EXPECT_EQ(m["sweep"]["points"].value<std::int64_t>(), 2);
+  ASSERT_NE(m["point"].as_array(), nullptr);
+  EXPECT_EQ(m["point"].as_array()->size(), 2u);
+  EXPECT_EQ(f["sweep"]["file"].value<std::string>(), fs::absolute("sizes.toml").string());
 }
 
 }  // namespace

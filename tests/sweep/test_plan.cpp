@@ -1,13 +1,17 @@
 // Sweep files: expansion into points, stable names, the replica tasks, array shares, and the
-// one-line errors for bad keys and values, found for every point before anything runs.
+// one-line errors for bad keys and values, found for every point before anything runs. Plans
+// built in code from a scene and a grid (make_plan): the same points as the file, no Slurm.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <set>
 #include <string>
 
 #include "lib/error.hpp"
+#include "sweep/engine.hpp"
 #include "sweep/plan.hpp"
+#include "sweep/slurm.hpp"
 
 namespace jamflow::sweep {
 namespace {
@@ -29,6 +33,21 @@ t_eq = 10.0
 t_av = 20.0
 sample_every = 1.0
 )";
+
+// kScene as a scene of its own (its tables without the "scene." prefix).
+Scene base_scene() {
+  std::string text = kScene;
+  for (std::size_t at = 0; (at = text.find("[scene.", at)) != std::string::npos;)
+    text.erase(at + 1, 6);
+  return Scene::parse(text, "base.toml");
+}
+
+toml::array values(std::initializer_list<double> xs) {
+  toml::array a;
+  for (double x : xs)
+    a.push_back(x);
+  return a;
+}
 
 Plan parse(const std::string& sweep) {
   return parse_plan(sweep + kScene, "test.toml", "/tmp", "/tmp/out");
@@ -257,6 +276,105 @@ TEST(SweepPlan, NestedTablesAreKeysToo) {
   const Plan p = parse("[sweep]\n[sweep.grid.shear]\nrate = [1e-3, 1e-4]\n");
   ASSERT_EQ(p.points.size(), 2u);
   EXPECT_EQ(p.axes.front(), "shear.rate");
+}
+
+}  // namespace
+}  // namespace jamflow::sweep
+
+namespace jamflow::sweep {
+namespace {
+
+// A grid built in code is the same plan as the sweep file with that [sweep.grid]: the same axes,
+// points in the same order with the same names, values, scenes and costs, and the same tasks.
+TEST(SweepMakePlan, TheSamePointsAsTheEquivalentSweepFile) {
+  const Plan file = parse(R"([sweep]
+replicas = 2
+[sweep.grid]
+"shear.rate" = [1e-3, 1e-4, 1e-5]
+"ensemble.pressure" = [1e-3, 1e-4]
+integrator = [{kind = "euler", dt = 0.2}, {kind = "rkc", atol = 1e-3}]
+)");
+  Grid grid;
+  grid["shear.rate"] = values({1e-3, 1e-4, 1e-5});
+  grid["ensemble.pressure"] = values({1e-3, 1e-4});
+  toml::array sections;
+  sections.push_back(toml::table{{"kind", "euler"}, {"dt", 0.2}});
+  sections.push_back(toml::table{{"kind", "rkc"}, {"atol", 1e-3}});
+  grid["integrator"] = sections;
+  const Plan made = make_plan(base_scene(), grid, "/tmp/out/grid.sweep", 2);
+  ASSERT_EQ(file.points.size(), 12u);
+  EXPECT_EQ(made.axes, file.axes);
+  EXPECT_EQ(made.replicas, 2);
+  ASSERT_EQ(made.points.size(), file.points.size());
+  for (std::size_t i = 0; i < file.points.size(); ++i) {
+    const Point &a = made.points[i], &b = file.points[i];
+    EXPECT_EQ(a.index, b.index);
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_EQ(a.values, b.values) << a.name;
+    EXPECT_EQ(a.scene.text(), b.scene.text()) << a.name;
+    EXPECT_EQ(a.n, b.n) << a.name;
+    EXPECT_EQ(a.cost, b.cost) << a.name;
+  }
+  const auto ta = made.tasks(), tb = file.tasks();
+  ASSERT_EQ(ta.size(), tb.size());
+  for (std::size_t i = 0; i < ta.size(); ++i) {
+    EXPECT_EQ(ta[i].point, tb[i].point);
+    EXPECT_EQ(ta[i].seed, tb[i].seed);
+  }
+  // No sweep file; named after its folder.
+  EXPECT_EQ(made.path, "");
+  EXPECT_EQ(made.name, "grid");
+  EXPECT_EQ(made.out_dir, "/tmp/out/grid.sweep");
+  // The replicas default to the scene's, as a file's do.
+  EXPECT_EQ(make_plan(base_scene(), grid, "/tmp/out/x").replicas, 1);
+}
+
+TEST(SweepMakePlan, BadGridsAreTheFilesOneLineErrors) {
+  auto error_of_grid = [](const Grid& grid, std::int64_t replicas = 0) -> std::string {
+    try {
+      make_plan(base_scene(), grid, "/tmp/out/g", replicas);
+    } catch (const ConfigError& e) {
+      return e.what();
+    }
+    return "(no error)";
+  };
+  const std::string twice = error_of_grid({{"shear.rate", values({1e-3, 1e-3})}});
+  EXPECT_NE(twice.find("the grid"), std::string::npos) << twice;
+  EXPECT_NE(twice.find("appears twice"), std::string::npos) << twice;
+  const std::string bad = error_of_grid({{"system.phi", values({0.6, 1.5})}});
+  EXPECT_NE(bad.find("sweep point phi-1.5:"), std::string::npos) << bad;
+  EXPECT_NE(error_of_grid({{"output.file", toml::array{"a.h5"}}}).find("set by the sweep"),
+            std::string::npos);
+  EXPECT_NE(error_of_grid({{"shear.rate", values({1e-3})}}, 0).find("(no error)"),
+            std::string::npos);
+  EXPECT_NE(error_of_grid({{"shear.rate", values({1e-3})}}, -1).find("replicas = -1"),
+            std::string::npos);
+  EXPECT_THROW(make_plan(base_scene(), {}, ""), ConfigError);  // nowhere to write
+}
+
+// Slurm's array tasks rerun `jamflow sweep FILE` on the nodes: a plan without a file is refused
+// with one line saying so, before anything is written.
+TEST(SweepMakePlan, SlurmRefusesAPlanWithoutASweepFile) {
+  namespace fs = std::filesystem;
+  const fs::path out = fs::temp_directory_path() / "jamflow-make-plan-slurm-never-written";
+  fs::remove_all(out);
+  const Plan made = make_plan(base_scene(), {{"shear.rate", values({1e-3, 1e-4})}}, out.string());
+  SlurmOptions options;
+  options.exe = "/bin/true";
+  std::string message;
+  try {
+    write_slurm_script(made, options);
+  } catch (const ConfigError& e) {
+    message = e.what();
+  }
+  EXPECT_NE(message.find("no sweep file"), std::string::npos) << message;
+  EXPECT_NE(message.find("Slurm"), std::string::npos) << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_THROW(slurm_script(made, options), ConfigError);
+  // The same grid from a file is accepted.
+  Plan file = parse("[sweep]\n[sweep.grid]\n\"shear.rate\" = [1e-3, 1e-4]\n");
+  EXPECT_NE(slurm_script(file, options).find("--array=0-1"), std::string::npos);
 }
 
 }  // namespace
