@@ -114,6 +114,119 @@ int write_outputs(const Outputs& o, const Json& json, const std::string& markdow
 
 }  // namespace
 
+namespace {
+
+// The exit code of `body`, with the errors every analysis shares: an output that would replace
+// an input (2), input errors (2), failed analyses (1), anything else (1), each one line.
+template <class F>
+int guarded(const std::vector<std::string>& inputs, const std::string& output, F&& body) {
+  try {
+    if (output.empty())
+      throw InputError("-o '': allowed a file name for the JSON output");
+    const Outputs out = output_paths(output);
+    // Nothing written may replace an input, however its path is spelled.
+    for (const std::string& path : {out.json, out.markdown, out.sidecar}) {
+      for (const std::string& in : inputs) {
+        if (same_file(path, in)) {
+          throw InputError("-o '" + output + "' would overwrite the input '" + in + "' (with " +
+                           path + "); allowed an output that is none of the data files");
+        }
+      }
+    }
+    return body(out);
+  } catch (const InputError& e) {
+    print_error(e.what());
+    return 2;
+  } catch (const AnalysisError& e) {
+    print_error(e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    print_error(std::string("internal error: ") + e.what());
+    return 1;
+  }
+}
+
+}  // namespace
+
+int analyze_hard_sphere_files(const std::vector<std::string>& files, const HardSphereOptions& o,
+                              const AnalysisOutputs& outputs) {
+  return guarded(files, outputs.json, [&](const Outputs& out) {
+    auto data = read_granular(files);
+    HardSphereResult r = analyze_hard_sphere(data, o);
+    for (const auto& w : r.warnings)
+      print_warning(w);
+    int code = write_outputs(out, hard_sphere_json(r, o, files), hard_sphere_markdown(r, o, files),
+                             hard_sphere_plot_data(r), "hard_sphere.py", outputs.plots);
+    for (const auto& f : r.failures)
+      print_error(f);
+    if (r.failures.empty())
+      return code;
+    // No size could be fitted, each for lack of data: the data cannot support the analysis.
+    const bool no_data = r.sizes.empty() && r.sizes_without_enough_data == r.unfitted.size();
+    return no_data ? 2 : 1;
+  });
+}
+
+int analyze_soft_files(const std::vector<std::string>& files,
+                       const std::vector<std::string>& yield_files, SoftOptions o,
+                       const AnalysisOutputs& outputs) {
+  std::vector<std::string> inputs = files;
+  inputs.insert(inputs.end(), yield_files.begin(), yield_files.end());
+  return guarded(inputs, outputs.json, [&](const Outputs& out) {
+    if (!yield_files.empty())
+      o.yield_data = read_shear(yield_files);
+    auto data = read_granular(files);
+    SoftResult r = analyze_soft(data, o);
+    for (const auto& w : r.warnings)
+      print_warning(w);
+    return write_outputs(out, soft_json(r, o, files), soft_markdown(r, o, files), soft_plot_data(r),
+                         "soft.py", outputs.plots);
+  });
+}
+
+int analyze_olsson_teitel_files(const std::vector<std::string>& files, const OlssonTeitelOptions& o,
+                                std::optional<std::int64_t> size, const AnalysisOutputs& outputs) {
+  return guarded(files, outputs.json, [&](const Outputs& out) {
+    auto data = read_shear(files);
+    if (size) {
+      std::vector<ShearPoint> kept;
+      for (const auto& p : data) {
+        if (p.n == *size)
+          kept.push_back(p);
+      }
+      if (kept.empty()) {
+        throw InputError("--size " + std::to_string(*size) + ": no data at this N");
+      }
+      data = std::move(kept);
+    }
+    OlssonTeitelResult r = analyze_olsson_teitel(data, o);
+    for (const auto& w : r.warnings)
+      print_warning(w);
+    return write_outputs(out, olsson_teitel_json(r, o, files), olsson_teitel_markdown(r, o, files),
+                         olsson_teitel_plot_data(r, data), "olsson_teitel.py", outputs.plots);
+  });
+}
+
+int analyze_flow_curve_files(const std::vector<std::string>& files, const FlowCurveOptions& o,
+                             bool include_failed, const AnalysisOutputs& outputs) {
+  return guarded(files, outputs.json, [&](const Outputs& out) {
+    std::vector<std::string> left_out;
+    VerdictAdmission verdicts;
+    verdicts.include_failed = include_failed;
+    verdicts.left_out = &left_out;
+    auto data = read_shear(files, verdicts);
+    FlowCurveResult r = analyze_flow_curves(data, o);
+    for (const auto& w : r.warnings)
+      print_warning(w);
+    int code = write_outputs(out, flow_curve_json(r, files, left_out, include_failed),
+                             flow_curve_markdown(r, files, left_out, include_failed),
+                             flow_curve_plot_data(r), "flow_curve.py", outputs.plots);
+    for (const auto& f : r.failures)
+      print_error(f);
+    return r.failures.empty() ? code : 1;
+  });
+}
+
 int analyze_main(const std::vector<std::string>& args) {
   CLI::App app{
       "Analyses of state-point summaries (SPEC §5): granular rheology in the hard-sphere and "
@@ -226,21 +339,9 @@ int analyze_main(const std::vector<std::string>& args) {
     return 2;
   }
 
+  // The options' own errors (--window 1:2:3, --bootstrap 5) are input errors, as the data's.
+  const AnalysisOutputs out{output, !no_plots};
   try {
-    if (output.empty())
-      throw InputError("-o '': allowed a file name for the JSON output");
-    const Outputs out = output_paths(output);
-    // Nothing written may replace an input, however its path is spelled.
-    std::vector<std::string> inputs = files;
-    inputs.insert(inputs.end(), yield_files.begin(), yield_files.end());
-    for (const std::string& path : {out.json, out.markdown, out.sidecar}) {
-      for (const std::string& in : inputs) {
-        if (same_file(path, in)) {
-          throw InputError("-o '" + output + "' would overwrite the input '" + in + "' (with " +
-                           path + "); allowed an output that is none of the data files");
-        }
-      }
-    }
     if (hs->parsed()) {
       HardSphereOptions o;
       o.envelope.z = envelope_z;
@@ -250,38 +351,12 @@ int analyze_main(const std::vector<std::string>& args) {
         o.window_min = w[0];
         o.window_max = w[1];
       }
-      auto data = read_granular(files);
-      HardSphereResult r = analyze_hard_sphere(data, o);
-      for (const auto& w : r.warnings)
-        print_warning(w);
-      int code =
-          write_outputs(out, hard_sphere_json(r, o, files), hard_sphere_markdown(r, o, files),
-                        hard_sphere_plot_data(r), "hard_sphere.py", !no_plots);
-      for (const auto& f : r.failures)
-        print_error(f);
-      if (r.failures.empty())
-        return code;
-      // No size could be fitted, each for lack of data: the data cannot support the analysis.
-      const bool no_data = r.sizes.empty() && r.sizes_without_enough_data == r.unfitted.size();
-      return no_data ? 2 : 1;
+      return analyze_hard_sphere_files(files, o, out);
     }
     if (fc->parsed()) {
       FlowCurveOptions o;
       o.scale_errors = !unscaled_errors;
-      std::vector<std::string> left_out;
-      VerdictAdmission verdicts;
-      verdicts.include_failed = include_failed;
-      verdicts.left_out = &left_out;
-      auto data = read_shear(files, verdicts);
-      FlowCurveResult r = analyze_flow_curves(data, o);
-      for (const auto& w : r.warnings)
-        print_warning(w);
-      int code = write_outputs(out, flow_curve_json(r, files, left_out, include_failed),
-                               flow_curve_markdown(r, files, left_out, include_failed),
-                               flow_curve_plot_data(r), "flow_curve.py", !no_plots);
-      for (const auto& f : r.failures)
-        print_error(f);
-      return r.failures.empty() ? code : 1;
+      return analyze_flow_curve_files(files, o, include_failed, out);
     }
     if (soft->parsed()) {
       SoftOptions o;
@@ -306,14 +381,7 @@ int analyze_main(const std::vector<std::string>& args) {
         throw InputError("--bootstrap " + std::to_string(soft_bootstrap) +
                          " (allowed: 0, or 10 and more resamples)");
       }
-      if (!yield_files.empty())
-        o.yield_data = read_shear(yield_files);
-      auto data = read_granular(files);
-      SoftResult r = analyze_soft(data, o);
-      for (const auto& w : r.warnings)
-        print_warning(w);
-      return write_outputs(out, soft_json(r, o, files), soft_markdown(r, o, files),
-                           soft_plot_data(r), "soft.py", !no_plots);
+      return analyze_soft_files(files, yield_files, o, out);
     }
     OlssonTeitelOptions o;
     if (!at_text.empty()) {
@@ -331,32 +399,13 @@ int analyze_main(const std::vector<std::string>& args) {
       o.split_delta = split_delta;
     if (split_gdot_opt->count() > 0)
       o.split_gdot = split_gdot;
-    auto data = read_shear(files);
-    if (size_opt->count() > 0) {
-      std::vector<ShearPoint> kept;
-      for (const auto& p : data) {
-        if (p.n == size)
-          kept.push_back(p);
-      }
-      if (kept.empty()) {
-        throw InputError("--size " + std::to_string(size) + ": no data at this N");
-      }
-      data = std::move(kept);
-    }
-    OlssonTeitelResult r = analyze_olsson_teitel(data, o);
-    for (const auto& w : r.warnings)
-      print_warning(w);
-    return write_outputs(out, olsson_teitel_json(r, o, files), olsson_teitel_markdown(r, o, files),
-                         olsson_teitel_plot_data(r, data), "olsson_teitel.py", !no_plots);
+    std::optional<std::int64_t> only;
+    if (size_opt->count() > 0)
+      only = size;
+    return analyze_olsson_teitel_files(files, o, only, out);
   } catch (const InputError& e) {
     print_error(e.what());
     return 2;
-  } catch (const AnalysisError& e) {
-    print_error(e.what());
-    return 1;
-  } catch (const std::exception& e) {
-    print_error(std::string("internal error: ") + e.what());
-    return 1;
   }
 }
 

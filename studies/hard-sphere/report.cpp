@@ -198,11 +198,9 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
                        const StudyOptions& options, double wall_seconds) {
   const std::string out = options.out_dir;
   const std::string json_path = (fs::path(out) / "analysis.json").string();
-  // 1. The analysis, exactly as `jamflow analyze hard-sphere TABLE -o analysis.json` runs it.
-  std::vector<std::string> args = {"hard-sphere", run.table, "-o", json_path};
-  if (options.no_plots)
-    args.push_back("--no-plots");
-  const int analysis_status = analysis::analyze_main(args);
+  // 1. The analysis, as `jamflow analyze hard-sphere TABLE -o analysis.json` runs it.
+  const int analysis_status = analysis::analyze_hard_sphere_files(
+      {run.table}, analysis::HardSphereOptions{}, {json_path, !options.no_plots});
   const analysis::Json result = read_analysis(study, json_path);
 
   // 2. The flow curves and mu(J), phi(J) (the seed's Figs. 2-3) from the table.

@@ -113,11 +113,9 @@ int report(const VolumePreset& preset, const SweepStudy& run, const StudyOptions
            double wall_seconds) {
   const std::string out = options.out_dir;
   const std::string json_path = (fs::path(out) / "analysis.json").string();
-  // 1. The analysis, exactly as `jamflow analyze olsson-teitel TABLE -o analysis.json` runs it.
-  std::vector<std::string> args = {"olsson-teitel", run.table, "-o", json_path};
-  if (options.no_plots)
-    args.push_back("--no-plots");
-  const int analysis_status = analysis::analyze_main(args);
+  // 1. The analysis, as `jamflow analyze olsson-teitel TABLE -o analysis.json` runs it.
+  const int analysis_status = analysis::analyze_olsson_teitel_files(
+      {run.table}, analysis::OlssonTeitelOptions{}, std::nullopt, {json_path, !options.no_plots});
   const analysis::Json result = read_analysis(kStudy, json_path);
   const Table table = read_table(run.table);
 

@@ -335,12 +335,12 @@ int report(const soft_rheology::Preset& preset, const SweepStudy& cp, const Swee
            const StudyOptions& options, double wall_seconds) {
   const std::string out = options.out_dir;
   const std::string json_path = (fs::path(out) / "analysis.json").string();
-  // 1. The analysis, exactly as `jamflow analyze soft CP_TABLE --yield-data CV_TABLE -o
-  //    analysis.json` runs it.
-  std::vector<std::string> args = {"soft", cp.table, "--yield-data", cv.table, "-o", json_path};
-  if (options.no_plots)
-    args.push_back("--no-plots");
-  const int analysis_status = analysis::analyze_main(args);
+  // 1. The analysis, as `jamflow analyze soft CP_TABLE --yield-data CV_TABLE -o analysis.json`
+  //    runs it: the joint fit is kept when the per-pressure collapse cannot be done.
+  analysis::SoftOptions soft;
+  soft.require_collapse = false;
+  const int analysis_status =
+      analysis::analyze_soft_files({cp.table}, {cv.table}, soft, {json_path, !options.no_plots});
   const analysis::Json result = read_analysis(kStudy, json_path);
   const Table cp_table = read_table(cp.table), cv_table = read_table(cv.table);
 

@@ -115,6 +115,42 @@ TEST(Cli, HardSphereWritesJsonAndReport) {
   EXPECT_NE(md.find("| phi_J | 0.647"), std::string::npos) << md;
 }
 
+// The typed entry the studies call is the command's analysis: with the options the flags set, it
+// writes the same JSON and report and returns the same code; it refuses an output that is an
+// input as the command does.
+TEST(Cli, TypedEntryIsTheCommandsAnalysis) {
+  ScratchDir dir;
+  testing::GranularSpec spec;
+  spec.sizes = {100, 300, 1000, 3000, 10000};
+  auto data = dir.write("granular.csv", granular_csv(testing::make_granular(spec)));
+  CliRun cli = run_analyze(
+      {"hard-sphere", data, "-o", dir.file("cli.json"), "--no-plots", "--window", "0.58:0.635"});
+  ASSERT_EQ(cli.code, 0) << cli.err;
+  HardSphereOptions o;
+  o.window_min = 0.58;
+  o.window_max = 0.635;
+  ::testing::internal::CaptureStderr();
+  const int code = analyze_hard_sphere_files({data}, o, {dir.file("typed.json"), false});
+  const std::string err = ::testing::internal::GetCapturedStderr();
+  EXPECT_EQ(code, cli.code) << err;
+  EXPECT_EQ(err, cli.err);
+  EXPECT_EQ(read_text(dir.file("typed.json")), read_text(dir.file("cli.json")));
+  EXPECT_EQ(read_text(dir.file("typed.md")), read_text(dir.file("cli.md")));
+  // A different option is a different analysis (the comparison above can fail).
+  o.window_max = 0.63;
+  ::testing::internal::CaptureStderr();
+  analyze_hard_sphere_files({data}, o, {dir.file("other.json"), false});
+  (void)::testing::internal::GetCapturedStderr();
+  EXPECT_NE(read_text(dir.file("other.json")), read_text(dir.file("cli.json")));
+
+  const std::string before = read_text(data);
+  ::testing::internal::CaptureStderr();
+  EXPECT_EQ(analyze_hard_sphere_files({data}, o, {data, false}), 2);
+  const std::string refused = ::testing::internal::GetCapturedStderr();
+  EXPECT_NE(refused.find("would overwrite the input"), std::string::npos) << refused;
+  EXPECT_EQ(read_text(data), before);
+}
+
 // An output that is an input is refused before anything is written, however the path is spelled
 // (before, `-o d.csv` replaced the data with JSON and exited 0).
 TEST(Cli, AnOutputThatIsAnInputIsRefused) {
