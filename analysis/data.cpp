@@ -28,109 +28,32 @@
 #include "analysis/admission.hpp"
 #include "analysis/errors.hpp"
 #include "analysis/json.hpp"
+#include "lib/error.hpp"
 #include "lib/statistics.hpp"
+#include "lib/table.hpp"
 
 namespace jamflow::analysis {
 
 namespace {
 
-std::string trim(const std::string& s) {
-  std::size_t b = 0, e = s.size();
-  while (b < e && std::isspace(static_cast<unsigned char>(s[b])))
-    ++b;
-  while (e > b && std::isspace(static_cast<unsigned char>(s[e - 1])))
-    --e;
-  return s.substr(b, e - b);
-}
-
-std::vector<std::string> split_csv_line(const std::string& line) {
-  std::vector<std::string> fields;
-  std::string field;
-  for (char c : line) {
-    if (c == ',') {
-      fields.push_back(trim(field));
-      field.clear();
-    } else {
-      field += c;
-    }
+// A CSV table read by the one table reader (lib/table.hpp), its errors as input errors, and at
+// least one row.
+Table read_csv(const std::string& path) {
+  Table table;
+  try {
+    table = read_csv_table(path);
+  } catch (const InputFileError& e) {
+    throw InputError(e.what());
   }
-  fields.push_back(trim(field));
-  return fields;
-}
-
-// A CSV table: header names and rows of raw fields, with line numbers kept
-// for messages.
-struct CsvTable {
-  std::string path;
-  std::vector<std::string> header;
-  std::vector<std::vector<std::string>> rows;
-  std::vector<int> line_numbers;
-
-  int column(const std::string& name) const {
-    for (std::size_t i = 0; i < header.size(); ++i) {
-      if (header[i] == name)
-        return static_cast<int>(i);
-    }
-    return -1;
-  }
-  bool has_columns(const std::vector<std::string>& names) const {
-    return std::all_of(names.begin(), names.end(),
-                       [&](const std::string& n) { return column(n) >= 0; });
-  }
-};
-
-CsvTable read_csv(const std::string& path) {
-  std::ifstream in(path);
-  if (!in)
-    throw InputError(path + ": cannot open file");
-  CsvTable table;
-  table.path = path;
-  std::string line;
-  int line_no = 0;
-  while (std::getline(in, line)) {
-    ++line_no;
-    if (!line.empty() && line.back() == '\r')
-      line.pop_back();
-    std::string t = trim(line);
-    if (t.empty() || t[0] == '#')
-      continue;  // blank lines and comments
-    auto fields = split_csv_line(t);
-    if (table.header.empty()) {
-      table.header = fields;
-      for (std::size_t i = 0; i < fields.size(); ++i) {
-        if (fields[i].empty()) {
-          throw InputError(path + ":" + std::to_string(line_no) + ": header column " +
-                           std::to_string(i + 1) + " is empty");
-        }
-        for (std::size_t k = 0; k < i; ++k) {
-          if (fields[k] == fields[i]) {
-            throw InputError(path + ":" + std::to_string(line_no) + ": duplicate column '" +
-                             fields[i] + "' in the header");
-          }
-        }
-      }
-      continue;
-    }
-    if (fields.size() != table.header.size()) {
-      throw InputError(path + ":" + std::to_string(line_no) + ": expected " +
-                       std::to_string(table.header.size()) + " comma-separated fields (" +
-                       "as in the header), found " + std::to_string(fields.size()));
-    }
-    table.rows.push_back(std::move(fields));
-    table.line_numbers.push_back(line_no);
-  }
-  if (table.header.empty())
-    throw InputError(path + ": empty file (no header line)");
   if (table.rows.empty())
     throw InputError(path + ": no data rows after the header");
   return table;
 }
 
 // Parses one numeric field; the message names file, line and column.
-double field_number(const CsvTable& t, std::size_t row, const std::string& name) {
+double field_number(const Table& t, std::size_t row, const std::string& name) {
   const std::string& text = t.rows[row][static_cast<std::size_t>(t.column(name))];
-  std::string where =
-      t.path + ":" + std::to_string(t.line_numbers[row]) + ": column '" + name + "'";
+  std::string where = t.path + ":" + std::to_string(t.lines[row]) + ": column '" + name + "'";
   double value = 0.0;
   const char* b = text.data();
   const char* e = b + text.size();
@@ -145,10 +68,10 @@ double field_number(const CsvTable& t, std::size_t row, const std::string& name)
   return value;
 }
 
-std::int64_t field_size(const CsvTable& t, std::size_t row, const std::string& name) {
+std::int64_t field_size(const Table& t, std::size_t row, const std::string& name) {
   double v = field_number(t, row, name);
   if (v < 1.0 || v != std::floor(v) || v > 1e15) {
-    throw InputError(t.path + ":" + std::to_string(t.line_numbers[row]) + ": column '" + name +
+    throw InputError(t.path + ":" + std::to_string(t.lines[row]) + ": column '" + name +
                      "': expected a positive integer particle number, got " + std::to_string(v));
   }
   return static_cast<std::int64_t>(v);
@@ -201,7 +124,7 @@ std::string join(const std::vector<std::string>& xs) {
 
 enum class TableForm { kGranular, kShear };
 
-TableForm table_form(const CsvTable& t) {
+TableForm table_form(const Table& t) {
   if (t.has_columns(kGranularColumns))
     return TableForm::kGranular;
   if (t.has_columns(kShearColumns))
@@ -223,13 +146,13 @@ TableForm table_form(const CsvTable& t) {
 
 // A table whose errors come in two parts (<o>_block_err, <o>_replica_err: `jamflow sweep
 // --collect` since the parts were separated).
-bool separate_error_parts(const CsvTable& t) {
+bool separate_error_parts(const Table& t) {
   return std::any_of(t.header.begin(), t.header.end(), [](const std::string& h) {
     return h.size() > 10 && h.compare(h.size() - 10, 10, "_block_err") == 0;
   });
 }
 
-double replicas_of(const CsvTable& t, std::size_t r) {
+double replicas_of(const Table& t, std::size_t r) {
   const int c = t.column("replicas");
   return c >= 0 ? std::atof(t.rows[r][static_cast<std::size_t>(c)].c_str()) : 0.0;
 }
@@ -237,7 +160,7 @@ double replicas_of(const CsvTable& t, std::size_t r) {
 // The errors of a row by the replica rule: with separate parts, each <o>_err of `errs` is
 // recomputed from <o>_block_err and <o>_replica_err (lib/statistics.hpp replica_point_error);
 // the basis says what they are made of.
-ErrorBasis row_errors(const CsvTable& t, std::size_t r,
+ErrorBasis row_errors(const Table& t, std::size_t r,
                       const std::vector<std::pair<std::string, double*>>& errs, double& replicas) {
   const int c = t.column("replicas");
   replicas = replicas_of(t, r);
@@ -245,7 +168,7 @@ ErrorBasis row_errors(const CsvTable& t, std::size_t r,
     return ErrorBasis::kGiven;
   if (!separate_error_parts(t))
     return replicas >= 2.0 ? ErrorBasis::kCollectedMax : ErrorBasis::kBlockOne;
-  const std::string where = t.path + ":" + std::to_string(t.line_numbers[r]);
+  const std::string where = t.path + ":" + std::to_string(t.lines[r]);
   for (const auto& [name, err] : errs) {
     if (t.column(name + "_block_err") < 0)
       continue;  // a column the collector does not split: as given
@@ -272,7 +195,7 @@ ErrorBasis row_errors(const CsvTable& t, std::size_t r,
 // (kBlockTwoShort) says that this understates it; an older table's errors include the scatter
 // of its 2 replicas, as collected.
 // Returns the reason to leave the row out, or "".
-std::string failed_verdicts(const CsvTable& t, std::size_t r) {
+std::string failed_verdicts(const Table& t, std::size_t r) {
   auto verdict = [&](const char* name) -> std::optional<bool> {
     const int c = t.column(name);
     if (c < 0)
@@ -288,7 +211,7 @@ std::string failed_verdicts(const CsvTable& t, std::size_t r) {
 
 // The rows of a table that the analyses use, with one note on stderr for those left out (or,
 // with include_failed, admitted although their verdicts failed).
-std::vector<std::size_t> usable_rows(const CsvTable& t, const VerdictAdmission& verdicts = {}) {
+std::vector<std::size_t> usable_rows(const Table& t, const VerdictAdmission& verdicts = {}) {
   std::vector<std::size_t> rows;
   std::string left;
   std::size_t count = 0;
@@ -299,12 +222,12 @@ std::vector<std::size_t> usable_rows(const CsvTable& t, const VerdictAdmission& 
     if (why.empty())
       continue;
     if (verdicts.left_out && !verdicts.include_failed)
-      verdicts.left_out->push_back(t.path + ":" + std::to_string(t.line_numbers[r]) + ": " + why);
+      verdicts.left_out->push_back(t.path + ":" + std::to_string(t.lines[r]) + ": " + why);
     ++count;
     if (count <= 10)
       left.append(left.empty() ? "" : "; ")
           .append("line ")
-          .append(std::to_string(t.line_numbers[r]))
+          .append(std::to_string(t.lines[r]))
           .append(": ")
           .append(why);
   }
@@ -317,9 +240,9 @@ std::vector<std::size_t> usable_rows(const CsvTable& t, const VerdictAdmission& 
   return rows;
 }
 
-GranularPoint granular_from_row(const CsvTable& t, std::size_t r) {
+GranularPoint granular_from_row(const Table& t, std::size_t r) {
   GranularPoint p;
-  p.source = t.path + ":" + std::to_string(t.line_numbers[r]);
+  p.source = t.path + ":" + std::to_string(t.lines[r]);
   p.n = field_size(t, r, "N");
   p.pressure = field_number(t, r, "P");
   p.shear_rate = field_number(t, r, "gdot");
@@ -345,9 +268,9 @@ std::string set_label_pressure(std::int64_t n, double p) {
   return "N=" + std::to_string(n) + ",P=" + format_key(p);
 }
 
-ShearPoint shear_from_row(const CsvTable& t, std::size_t r, TableForm form) {
+ShearPoint shear_from_row(const Table& t, std::size_t r, TableForm form) {
   ShearPoint s;
-  s.source = t.path + ":" + std::to_string(t.line_numbers[r]);
+  s.source = t.path + ":" + std::to_string(t.lines[r]);
   s.n = field_size(t, r, "N");
   s.phi = field_number(t, r, "phi");
   s.shear_rate = field_number(t, r, "gdot");
@@ -901,7 +824,7 @@ std::vector<GranularPoint> read_granular(const std::vector<std::string>& paths) 
       points.push_back(p);
       continue;
     }
-    CsvTable t = read_csv(path);
+    Table t = read_csv(path);
     if (table_form(t) != TableForm::kGranular) {
       throw InputError(path + ": this is a constant-volume table (" + join(kShearColumns) +
                        "); the granular analyses need constant-pressure data with columns " +
@@ -954,7 +877,7 @@ std::vector<ShearPoint> read_shear(const std::vector<std::string>& paths,
       points.push_back(p);
       continue;
     }
-    CsvTable t = read_csv(path);
+    Table t = read_csv(path);
     TableForm form = table_form(t);
     for (const std::size_t r : usable_rows(t, verdicts)) {
       points.push_back(shear_from_row(t, r, form));

@@ -16,47 +16,11 @@
 
 namespace jamflow::studies {
 
-int Table::column(const std::string& name) const {
-  for (std::size_t i = 0; i < header.size(); ++i) {
-    if (header[i] == name)
-      return static_cast<int>(i);
-  }
-  return -1;
-}
-
-double Table::number(std::size_t row, const std::string& name) const {
-  const int c = column(name);
-  if (c < 0 || std::size_t(c) >= rows[row].size() || rows[row][std::size_t(c)].empty())
-    return std::nan("");
-  return std::stod(rows[row][std::size_t(c)]);
-}
-
-std::string Table::text(std::size_t row, const std::string& name) const {
-  const int c = column(name);
-  return c < 0 || std::size_t(c) >= rows[row].size() ? "" : rows[row][std::size_t(c)];
-}
-
 Table read_table(const std::string& path) {
-  std::ifstream in(path);
-  Table t;
-  std::string line;
-  auto split = [](const std::string& l) {
-    std::vector<std::string> out;
-    std::stringstream ss(l);
-    std::string cell;
-    while (std::getline(ss, cell, ','))
-      out.push_back(cell);
-    if (!l.empty() && l.back() == ',')
-      out.emplace_back();
-    return out;
-  };
-  if (std::getline(in, line))
-    t.header = split(line);
-  while (std::getline(in, line)) {
-    if (!line.empty())
-      t.rows.push_back(split(line));
-  }
-  return t;
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec))
+    return {};
+  return read_csv_table(path);
 }
 
 double points_cpu_hours(const std::string& dir, std::size_t* from_wall) {

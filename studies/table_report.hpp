@@ -7,19 +7,12 @@
 
 #include "analysis/json.hpp"
 #include "lib/h5.hpp"
+#include "lib/table.hpp"
 
 namespace jamflow::studies {
 
-// A collected table: header and rows of text cells.
-struct Table {
-  std::vector<std::string> header;
-  std::vector<std::vector<std::string>> rows;
-  int column(const std::string& name) const;
-  double number(std::size_t row, const std::string& name) const;  // NaN if empty or absent
-  std::string text(std::size_t row, const std::string& name) const;
-};
-
-Table read_table(const std::string& path);  // an empty table if the file is absent
+// A collected table (lib/table.hpp), or an empty one if the file is absent.
+Table read_table(const std::string& path);
 std::string read_file(const std::string& path);
 
 // The CPU-hours of the runs under `dir`: the CPU seconds (one thread each) of every finished

@@ -1,0 +1,122 @@
+#include "lib/table.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+
+#include "lib/error.hpp"
+
+namespace jamflow {
+
+namespace {
+
+std::string trim(const std::string& s) {
+  std::size_t b = 0, e = s.size();
+  while (b < e && std::isspace(static_cast<unsigned char>(s[b])))
+    ++b;
+  while (e > b && std::isspace(static_cast<unsigned char>(s[e - 1])))
+    --e;
+  return s.substr(b, e - b);
+}
+
+std::vector<std::string> split_line(const std::string& line) {
+  std::vector<std::string> fields;
+  std::string field;
+  for (const char c : line) {
+    if (c == ',') {
+      fields.push_back(trim(field));
+      field.clear();
+    } else {
+      field += c;
+    }
+  }
+  fields.push_back(trim(field));
+  return fields;
+}
+
+}  // namespace
+
+int Table::column(std::string_view name) const {
+  for (std::size_t i = 0; i < header.size(); ++i) {
+    if (header[i] == name)
+      return static_cast<int>(i);
+  }
+  return -1;
+}
+
+bool Table::has_columns(const std::vector<std::string>& names) const {
+  return std::all_of(names.begin(), names.end(),
+                     [&](const std::string& n) { return column(n) >= 0; });
+}
+
+double Table::number(std::size_t row, std::string_view name) const {
+  const std::string cell = text(row, name);
+  if (cell.empty())
+    return std::nan("");
+  char* end = nullptr;
+  const double v = std::strtod(cell.c_str(), &end);
+  return end && *end == '\0' ? v : std::nan("");
+}
+
+std::string Table::text(std::size_t row, std::string_view name) const {
+  const int c = column(name);
+  if (c < 0 || row >= rows.size() || static_cast<std::size_t>(c) >= rows[row].size())
+    return "";
+  return rows[row][static_cast<std::size_t>(c)];
+}
+
+Table read_csv_table(const std::string& path) {
+  std::ifstream in(path);
+  if (!in)
+    throw InputFileError(path + ": cannot open file");
+  Table table;
+  table.path = path;
+  std::string line;
+  int line_no = 0;
+  bool header_read = false;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (!line.empty() && line.back() == '\r')
+      line.pop_back();
+    const std::string t = trim(line);
+    if (t.empty() || t[0] == '#')
+      continue;  // blank lines and comments
+    auto fields = split_line(t);
+    const std::string where = path + ":" + std::to_string(line_no) + ": ";
+    if (!header_read) {
+      for (std::size_t i = 0; i < fields.size(); ++i) {
+        if (fields[i].empty())
+          throw InputFileError(where + "header column " + std::to_string(i + 1) + " is empty");
+        for (std::size_t k = 0; k < i; ++k) {
+          if (fields[k] == fields[i])
+            throw InputFileError(where + "duplicate column '" + fields[i] + "' in the header");
+        }
+      }
+      table.header = std::move(fields);
+      header_read = true;
+      continue;
+    }
+    if (fields.size() != table.header.size()) {
+      throw InputFileError(where + "expected " + std::to_string(table.header.size()) +
+                           " comma-separated fields (as in the header), found " +
+                           std::to_string(fields.size()));
+    }
+    table.rows.push_back(std::move(fields));
+    table.lines.push_back(line_no);
+  }
+  if (!header_read)
+    throw InputFileError(path + ": empty file (no header line)");
+  return table;
+}
+
+std::string csv_cell(std::string text) {
+  for (char& c : text) {
+    if (c == ',' || c == '\n' || c == '\r' || c == '"')
+      c = ';';
+  }
+  return text;
+}
+
+}  // namespace jamflow

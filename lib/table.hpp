@@ -1,0 +1,36 @@
+// Tables of text cells: the collected sweep table (sweep/collect.cpp) and the CSV tables the
+// analyses read. The one reader of their CSV form, used by the analyses and the studies.
+#pragma once
+#include <cstddef>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace jamflow {
+
+struct Table {
+  std::string path;  // the file it was read from ("" for a table built in memory)
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;  // as many cells as the header
+  std::vector<int> lines;                      // each row's line in the file (from 1)
+
+  int column(std::string_view name) const;  // -1 if absent
+  bool has_columns(const std::vector<std::string>& names) const;
+  // The cell as a number: NaN where the column is absent, the cell empty or not a number.
+  double number(std::size_t row, std::string_view name) const;
+  // The cell's text: "" where the column is absent.
+  std::string text(std::size_t row, std::string_view name) const;
+};
+
+// Reads a CSV table: fields separated by commas and trimmed of spaces (no quoting: cells hold
+// no commas, see csv_cell), a final '\r' dropped, blank lines and lines starting with '#'
+// skipped. The first line is the header, with non-empty, distinct names; every row has as many
+// fields. An InputFileError names the file and line ("cannot open file", "empty file (no header
+// line)", "header column 3 is empty", "duplicate column 'phi' in the header", "expected 7
+// comma-separated fields (as in the header), found 6"). A table without rows is returned.
+Table read_csv_table(const std::string& path);
+
+// A cell's text as a CSV table holds it: commas, quotes and line breaks become ';'.
+std::string csv_cell(std::string text);
+
+}  // namespace jamflow

@@ -1,0 +1,94 @@
+// The one CSV table reader (lib/table.hpp): what it keeps, what it skips, and its one-line
+// errors naming the file and line.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "lib/error.hpp"
+#include "lib/table.hpp"
+
+namespace jamflow {
+namespace {
+
+class TableFile {
+ public:
+  explicit TableFile(const std::string& text) {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    path_ = (std::filesystem::temp_directory_path() /
+             ("jamflow_table_" + std::to_string(::getpid()) + "_" + info->name() + ".csv"))
+                .string();
+    std::ofstream(path_) << text;
+  }
+  ~TableFile() { std::filesystem::remove(path_); }
+  TableFile(const TableFile&) = delete;
+  TableFile& operator=(const TableFile&) = delete;
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+std::string error_of(const std::string& text) {
+  TableFile f(text);
+  try {
+    read_csv_table(f.path());
+  } catch (const InputFileError& e) {
+    const std::string what = e.what();
+    return what.substr(what.find(".csv") + 4);  // after the file name
+  }
+  return "no error";
+}
+
+TEST(Table, ReadsTrimmedCellsAndSkipsCommentsAndBlankLines) {
+  TableFile f("# a comment\n point , phi,eta\r\n\nP1, 0.62 ,\n  # another\nP2,0.63,1e3\n");
+  const Table t = read_csv_table(f.path());
+  EXPECT_EQ(t.path, f.path());
+  ASSERT_EQ(t.header, (std::vector<std::string>{"point", "phi", "eta"}));
+  ASSERT_EQ(t.rows.size(), 2u);
+  EXPECT_EQ(t.lines, (std::vector<int>{4, 6}));
+  EXPECT_EQ(t.text(0, "point"), "P1");
+  EXPECT_EQ(t.number(0, "phi"), 0.62);
+  EXPECT_TRUE(std::isnan(t.number(0, "eta")));  // empty cell
+  EXPECT_EQ(t.number(1, "eta"), 1e3);
+  EXPECT_TRUE(std::isnan(t.number(1, "point")));  // not a number
+  EXPECT_TRUE(std::isnan(t.number(1, "absent")));
+  EXPECT_EQ(t.text(1, "absent"), "");
+  EXPECT_EQ(t.column("eta"), 2);
+  EXPECT_EQ(t.column("absent"), -1);
+  EXPECT_TRUE(t.has_columns({"phi", "point"}));
+  EXPECT_FALSE(t.has_columns({"phi", "mu"}));
+}
+
+TEST(Table, AHeaderWithoutRowsIsATable) {
+  TableFile f("N,phi\n");
+  const Table t = read_csv_table(f.path());
+  EXPECT_EQ(t.header.size(), 2u);
+  EXPECT_TRUE(t.rows.empty());
+}
+
+TEST(Table, ErrorsNameTheFileAndLine) {
+  EXPECT_EQ(error_of(""), ": empty file (no header line)");
+  EXPECT_EQ(error_of("# only a comment\n"), ": empty file (no header line)");
+  EXPECT_EQ(error_of("N,,phi\n1,2,3\n"), ":1: header column 2 is empty");
+  EXPECT_EQ(error_of("\nN,phi,N\n"), ":2: duplicate column 'N' in the header");
+  EXPECT_EQ(error_of("N,phi\n1,2\n1,2,3\n"),
+            ":3: expected 2 comma-separated fields (as in the header), found 3");
+  try {
+    read_csv_table("/nonexistent/table.csv");
+    FAIL() << "no error";
+  } catch (const InputFileError& e) {
+    EXPECT_EQ(std::string(e.what()), "/nonexistent/table.csv: cannot open file");
+  }
+}
+
+TEST(Table, CsvCellsHoldNoSeparators) {
+  EXPECT_EQ(csv_cell("a,b\n\"c\"\r"), "a;b;;c;;");
+  EXPECT_EQ(csv_cell("plain text"), "plain text");
+}
+
+}  // namespace
+}  // namespace jamflow
