@@ -354,7 +354,7 @@ void H5Writer::dataset(const std::string& path, const std::vector<std::string>& 
   write_dataset(file_, part_path(), path, pointers, {}, type.get(), type.get());
 }
 
-void H5Writer::group(const std::string& path) {
+void H5Writer::group(const std::string& path, bool creation_order) {
   silence_hdf5();
   if (done_ || file_ < 0)
     throw IoError(part_path() + ": group " + quoted(path) + ": file already closed");
@@ -367,7 +367,13 @@ void H5Writer::group(const std::string& path) {
   }
   require_group_parents(file_, part_path(), path);
   const Handle lcpl = intermediate_lcpl();
-  const Handle g(H5Gcreate2(file_, path.c_str(), lcpl.get(), H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+  const Handle gcpl(H5Pcreate(H5P_GROUP_CREATE), H5Pclose);
+  if (!gcpl.ok() ||
+      (creation_order &&
+       H5Pset_link_creation_order(gcpl.get(), H5P_CRT_ORDER_TRACKED | H5P_CRT_ORDER_INDEXED) < 0)) {
+    throw IoError(part_path() + ": cannot create group " + quoted(path) + ": " + hdf5_reason());
+  }
+  const Handle g(H5Gcreate2(file_, path.c_str(), lcpl.get(), gcpl.get(), H5P_DEFAULT), H5Gclose);
   if (!g.ok()) {
     throw IoError(part_path() + ": cannot create group " + quoted(path) + ": " + hdf5_reason());
   }

@@ -39,7 +39,9 @@ class H5Writer {
                const std::vector<std::size_t>& dims = {});
   // 1-D, variable-length UTF-8 strings (h5py: f[path].asstr()[()]).
   void dataset(const std::string& path, const std::vector<std::string>& data);
-  void group(const std::string& path);
+  // A group; with `creation_order` its links are listed in the order they are created (h5py
+  // iterates it so, as a table's columns), not by name.
+  void group(const std::string& path, bool creation_order = false);
 
   // Scalar attributes on an existing object (group or dataset; "/" is the root).
   void attr(const std::string& object, const std::string& name, double value);

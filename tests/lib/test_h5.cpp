@@ -129,6 +129,7 @@ TEST_F(H5Test, StringDatasetsAndStringArrayAttributesRoundTrip) {
   const std::vector<std::string> names{"point", "shear.rate", "status"};
   {
     H5Writer w(path);
+    w.group("/table", true);
     w.dataset("/table/point", cells);
     w.dataset("/table/none", std::vector<std::string>{});
     w.attr("/table", "columns", names);
@@ -146,6 +147,7 @@ TEST_F(H5Test, StringDatasetsAndStringArrayAttributesRoundTrip) {
   EXPECT_TRUE(r.is_group("/table"));
   EXPECT_FALSE(r.is_group("/table/point"));
   EXPECT_FALSE(r.is_group("/nope"));
+  EXPECT_EQ(r.children("/table"), (std::vector<std::string>{"none", "point"}));  // by name
   EXPECT_THROW(r.attr_string("/table", "columns"), IoError);  // not a single value
   EXPECT_THROW(r.read_doubles("/table/point"), IoError);
   // Stored as h5py reads str: variable-length UTF-8.
@@ -158,6 +160,20 @@ TEST_F(H5Test, StringDatasetsAndStringArrayAttributesRoundTrip) {
   EXPECT_EQ(H5Tget_cset(t), H5T_CSET_UTF8);
   H5Tclose(t);
   H5Dclose(d);
+  // The group lists its links in creation order (h5py iterates "point", then "none").
+  const hid_t g = H5Gopen2(f, "/table", H5P_DEFAULT);
+  ASSERT_GE(g, 0);
+  const hid_t gcpl = H5Gget_create_plist(g);
+  unsigned order = 0;
+  EXPECT_GE(H5Pget_link_creation_order(gcpl, &order), 0);
+  EXPECT_EQ(order, unsigned{H5P_CRT_ORDER_TRACKED | H5P_CRT_ORDER_INDEXED});
+  char first[16] = {};
+  EXPECT_GT(H5Lget_name_by_idx(g, ".", H5_INDEX_CRT_ORDER, H5_ITER_INC, 0, first, sizeof first,
+                               H5P_DEFAULT),
+            0);
+  EXPECT_STREQ(first, "point");
+  H5Pclose(gcpl);
+  H5Gclose(g);
   H5Fclose(f);
 }
 
