@@ -57,7 +57,8 @@ int sweep_command(const std::vector<std::string>& args) {
       ->check(CLI::Range(1, 4096));
   app.add_flag("--dry-run", dry_run, "list the points, their state and the expected cost");
   app.add_option("--collect", collect_path,
-                 "write one row per finished point to TABLE.csv (read by `jamflow analyze`)");
+                 "write one row per finished point to TABLE.csv (read by `jamflow analyze`), or "
+                 "to TABLE.h5 (a dataset per column)");
   app.add_flag("--slurm", slurm, "write DIR/sweep.sbatch, a Slurm job array for the sweep");
   app.add_option("--array-size", array_size,
                  "Slurm array tasks (--slurm; default one per run, at most 1000), or the array "

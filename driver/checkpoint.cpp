@@ -50,6 +50,8 @@ void write_state(H5Writer& w, const std::string& g, const State& s) {
   w.dataset(g + "/diameter", s.diameter);
   w.dataset(g + "/species", convert<std::int64_t>(s.species));
   w.dataset(g + "/id", s.id);
+  for (const char* name : {"pos", "image", "diameter", "species", "id"})
+    write_unit(w, g + "/" + name);
   w.attr(g, "lx", s.box.lx);
   w.attr(g, "ly", s.box.ly);
   w.attr(g, "lz", s.box.lz);
@@ -103,6 +105,9 @@ void write_list(H5Writer& w, const std::string& g, const NeighbourList::Snapshot
   w.dataset(g + "/inner_ref_pos", l.inner_ref_pos);
   w.dataset(g + "/h_ref_inv", flat(l.h_ref_inv), {3, 3});
   w.dataset(g + "/inner_h_ref_inv", flat(l.inner_h_ref_inv), {3, 3});
+  for (const char* name : {"start", "entries", "inner_start", "inner_entries", "ref_pos",
+                           "inner_ref_pos", "h_ref_inv", "inner_h_ref_inv"})
+    write_unit(w, g + "/" + name);
 }
 
 NeighbourList::Snapshot read_list(const H5Reader& r, const std::string& g) {
@@ -175,9 +180,12 @@ void write_checkpoint(H5Writer& w, const RunSpec& spec, const std::vector<Replic
     // group lacks (piston_dissipation without a piston, zeros) is stored in the checkpoint.
     w.group(g);
     w.attr(g, "series", timeseries.at(k));
-    for (const auto& [name, field] : kSeriesFields)
-      if (!timeseries_has(spec, name))
+    for (const auto& [name, field] : kSeriesFields) {
+      if (!timeseries_has(spec, name)) {
         w.dataset(g + "/series/" + name, res.series.column(field));
+        write_unit(w, g + "/series/" + name);
+      }
+    }
     w.attr(g, "seed", static_cast<std::int64_t>(res.seed));
     w.attr(g, "status", res.status.text());
     w.attr(g, "wall_seconds", res.wall_seconds);

@@ -21,6 +21,7 @@
 //                                           evaluated, particle_volume
 //     model/state                    pos, image, diameter, species, id; attrs: box, time
 //     model/list                     the neighbour lists (lib/neighbour_list.hpp Snapshot)
+//   Every dataset carries the attribute "unit" (unit_of, driver/run.hpp), as the run file's do.
 #pragma once
 #include <string>
 #include <string_view>

@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -219,6 +220,8 @@ State initial_state(const RunSpec& spec, std::uint64_t seed);
 // wall_seconds and cpu_seconds stay the first replica's). The root attribute "status" is "complete"
 // only when every replica is.
 void write_run_layout(H5Writer& w, const RunSpec& spec, const std::vector<ReplicaResult>& replicas);
+// Writes the attribute "unit" (unit_of its name) on the dataset `path` just written.
+void write_unit(H5Writer& w, const std::string& path);
 
 // The /summary attributes of replica r, in the order the run file writes them: its summary
 // values, verdicts and texts, N, alpha, the ensemble's attributes, the integrator and its
@@ -227,6 +230,16 @@ void write_run_layout(H5Writer& w, const RunSpec& spec, const std::vector<Replic
 // The Python module's RunResult.summary is this list.
 Attributes summary_attributes(const RunSpec& spec, const ReplicaResult& r,
                               const ReplicaResult* summary = nullptr);
+// The unit of a quantity the run file stores, by its name (a dataset's last path component or
+// a /summary attribute), in reduced units a = eps = xi_s = 1 (the small diameter, the energy
+// scale, the solvent friction; tau_0 = xi_s a^2 / eps): "a", "tau_0", "eps/a^3", "xi_s/a",
+// "1" for a dimensionless number or a count, "s" for wall and CPU seconds, and so on
+// (docs/guide/files.md). <x>_err, <x>_replica_err, <x>_block_std and <x>_total have the unit
+// of x; tau_<x> is a time, trend_t_<x> a t-statistic. Empty for text (ensemble, verdicts) and
+// for a name it does not know. Every dataset of a run file carries it as the attribute "unit";
+// each numeric /summary attribute has it under /summary/units, by the same name.
+std::string unit_of(std::string_view name);
+
 // The top-level summary of several replicas: combine_replicas() of theirs plus
 // wall_seconds_total and cpu_seconds_total; the integrator counters and the wall and CPU
 // seconds are the first replica's.

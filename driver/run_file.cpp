@@ -6,6 +6,10 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <optional>
+#include <string_view>
+#include <utility>
+#include <variant>
 
 #include "driver/checkpoint.hpp"
 #include "driver/run.hpp"
@@ -28,7 +32,140 @@ std::string iso_now() {
   return buf;
 }
 
+// Units of the quantities by name (unit_of). Counters, flags and ratios are "1".
+constexpr std::pair<std::string_view, std::string_view> kUnits[] = {
+    // Series and summary values.
+    {"time", "tau_0"},
+    {"strain", "1"},
+    {"volume", "a^3"},
+    {"phi", "1"},
+    {"pressure", "eps/a^3"},
+    {"imposed_pressure", "eps/a^3"},
+    {"sigma_xy", "eps/a^3"},
+    {"energy", "eps"},
+    {"dissipation", "eps/tau_0"},
+    {"piston_dissipation", "eps/tau_0"},
+    {"eta", "xi_s/a"},
+    {"mu", "1"},
+    {"J", "1"},  // gdot eta_0 / P
+    {"shear_rate", "1/tau_0"},
+    {"energy_balance", "1"},
+    {"energy_balance_corrected", "1"},
+    {"force_step_correlation", "1"},
+    {"samples", "1"},
+    {"replicas", "1"},
+    {"block_length", "tau_0"},
+    {"t_eq", "tau_0"},
+    {"t_av", "tau_0"},
+    {"steady", "1"},  // verdicts: 1 pass, 0 fail, NaN not checked
+    {"stable", "1"},
+    {"decorrelated", "1"},
+    {"N", "1"},
+    {"alpha", "1"},        // the potential's exponent
+    {"xi_V", "xi_s/a^4"},  // the piston's friction
+    {"wall_seconds", "s"},
+    {"cpu_seconds", "s"},
+    // The final configuration.
+    {"positions", "a"},
+    {"diameters", "a"},
+    {"species", "1"},
+    {"cell", "a"},
+    // The checkpoint: scaled (fractional) coordinates, image counters, particle ids and the
+    // neighbour lists' rows and entries are numbers; h^-1 of a cell is an inverse length.
+    {"pos", "1"},
+    {"image", "1"},
+    {"diameter", "a"},
+    {"id", "1"},
+    {"start", "1"},
+    {"entries", "1"},
+    {"inner_start", "1"},
+    {"inner_entries", "1"},
+    {"ref_pos", "1"},
+    {"inner_ref_pos", "1"},
+    {"h_ref_inv", "1/a"},
+    {"inner_h_ref_inv", "1/a"},
+};
+
+// The integrators' counters and state (Integrator::statistics, and the driver's own), as the
+// summary's integrator_<name>: counts are "1".
+constexpr std::pair<std::string_view, std::string_view> kIntegratorUnits[] = {
+    {"steps", "1"},
+    {"force_evaluations", "1"},
+    {"force_pass_equivalents", "1"},
+    {"neighbour_list_builds", "1"},
+    // RESPA
+    {"inner_steps", "1"},
+    // RKC
+    {"rejected_steps", "1"},
+    {"stage_evaluations", "1"},
+    {"dom_eig_estimates", "1"},
+    {"dom_eig_evaluations", "1"},
+    {"max_stages_used", "1"},
+    {"steps_since_dom_eig", "1"},
+    {"need_dom_eig", "1"},
+    {"spectral_radius", "1/tau_0"},
+    {"step_next", "tau_0"},
+    {"step_last", "tau_0"},
+    {"error_last", "1"},  // the weighted error norm
+    // CVODE
+    {"rhs_evaluations", "1"},
+    {"nonlinear_iterations", "1"},
+    {"linear_iterations", "1"},
+    {"jtimes_evaluations", "1"},
+    {"error_test_failures", "1"},
+    {"nonlinear_convergence_failures", "1"},
+    {"linear_convergence_failures", "1"},
+    {"preconditioner_setups", "1"},
+    {"preconditioner_solves", "1"},
+    {"jtimes_setups", "1"},
+    {"rhs_recoverable_failures", "1"},
+    {"reinits", "1"},
+    {"atol", "a"},  // the absolute tolerance, a contact length
+};
+
+template <std::size_t K>
+std::string lookup(const std::pair<std::string_view, std::string_view> (&table)[K],
+                   std::string_view name) {
+  for (const auto& [key, unit] : table)
+    if (key == name)
+      return std::string(unit);
+  return {};
+}
+
 }  // namespace
+
+std::string unit_of(std::string_view name) {
+  if (std::string u = lookup(kUnits, name); !u.empty())
+    return u;
+  const auto strip = [&](std::string_view affix, bool prefix) -> std::optional<std::string_view> {
+    if (name.size() <= affix.size())
+      return std::nullopt;
+    if (prefix)
+      return name.substr(0, affix.size()) == affix ? std::optional(name.substr(affix.size()))
+                                                   : std::nullopt;
+    return name.substr(name.size() - affix.size()) == affix
+               ? std::optional(name.substr(0, name.size() - affix.size()))
+               : std::nullopt;
+  };
+  // An error, a scatter or a sum has the unit of its quantity.
+  for (std::string_view suffix : {"_replica_err", "_err", "_block_std", "_total"})
+    if (const auto base = strip(suffix, false))
+      return unit_of(*base);
+  if (const auto base = strip("integrator_", true))
+    return lookup(kIntegratorUnits, *base);
+  // Integrated autocorrelation times, and the t-statistics of the block means' trend.
+  if (const auto base = strip("tau_", true); base && !unit_of(*base).empty())
+    return "tau_0";
+  if (const auto base = strip("trend_t_", true); base && !unit_of(*base).empty())
+    return "1";
+  return {};
+}
+
+void write_unit(H5Writer& w, const std::string& path) {
+  const std::string unit = unit_of(std::string_view(path).substr(path.rfind('/') + 1));
+  if (!unit.empty())
+    w.attr(path, "unit", unit);
+}
 
 Configuration configuration_of(const State& st) {
   Configuration c;
@@ -65,9 +202,12 @@ void write_replica(H5Writer& w, const RunSpec& spec, const ReplicaResult& r,
                    const std::string& prefix, const ReplicaResult* summary = nullptr) {
   const auto& ss = r.series;
   const std::string ts = prefix + "/timeseries";
-  for (const auto& [name, field] : kSeriesFields)
-    if (timeseries_has(spec, name))
+  for (const auto& [name, field] : kSeriesFields) {
+    if (timeseries_has(spec, name)) {
       w.dataset(ts + "/" + name, ss.column(field));
+      write_unit(w, ts + "/" + name);
+    }
+  }
   const auto t_eq = r.summary.values.find("t_eq");
   w.attr(ts, "t_eq", t_eq == r.summary.values.end() ? spec.t_eq : t_eq->second);
   w.attr(ts, "seed", static_cast<std::int64_t>(r.seed));
@@ -80,12 +220,22 @@ void write_replica(H5Writer& w, const RunSpec& spec, const ReplicaResult& r,
   w.dataset(fin + "/diameters", c.diameters);
   w.dataset(fin + "/species", c.species);
   w.dataset(fin + "/cell", c.cell, {3, 3});
+  for (const char* name : {"positions", "diameters", "species", "cell"})
+    write_unit(w, fin + "/" + name);
   w.attr(fin, "strain", c.strain);
   w.attr(fin, "time", c.time);
 
   const std::string sm = prefix + "/summary";
   w.group(sm);
-  w.attrs(sm, summary_attributes(spec, r, summary));
+  const Attributes values = summary_attributes(spec, r, summary);
+  w.attrs(sm, values);
+  // Attributes cannot carry attributes: the units of the numbers, by name, in a subgroup.
+  w.group(sm + "/units");
+  for (const auto& [name, value] : values) {
+    const std::string unit = unit_of(name);
+    if (!std::holds_alternative<std::string>(value) && !unit.empty())
+      w.attr(sm + "/units", name, unit);
+  }
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <stdexcept>
 #include <utility>
 #include <variant>
@@ -265,6 +266,16 @@ void H5Writer::write_out() {
 
 namespace {
 
+// Variable-length UTF-8: what h5py reads back as str (fixed-length would come back as bytes).
+Handle utf8_string_type(const std::string& file_path) {
+  Handle t(H5Tcopy(H5T_C_S1), H5Tclose);
+  if (!t.ok() || H5Tset_size(t.get(), H5T_VARIABLE) < 0 ||
+      H5Tset_cset(t.get(), H5T_CSET_UTF8) < 0) {
+    throw IoError(file_path + ": cannot make a string type: " + hdf5_reason());
+  }
+  return t;
+}
+
 template <class T>
 void write_dataset(hid_t file, const std::string& file_path, const std::string& path,
                    const std::vector<T>& data, const std::vector<std::size_t>& dims_in,
@@ -332,7 +343,18 @@ void H5Writer::dataset(const std::string& path, const std::vector<std::uint32_t>
   write_dataset(file_, part_path(), path, data, dims, H5T_STD_U32LE, H5T_NATIVE_UINT32);
 }
 
-void H5Writer::group(const std::string& path) {
+void H5Writer::dataset(const std::string& path, const std::vector<std::string>& data) {
+  silence_hdf5();
+  if (done_ || file_ < 0)
+    throw IoError(part_path() + ": dataset " + quoted(path) + ": file already closed");
+  const Handle type = utf8_string_type(part_path());
+  std::vector<const char*> pointers;
+  for (const auto& s : data)
+    pointers.push_back(s.c_str());
+  write_dataset(file_, part_path(), path, pointers, {}, type.get(), type.get());
+}
+
+void H5Writer::group(const std::string& path, bool creation_order) {
   silence_hdf5();
   if (done_ || file_ < 0)
     throw IoError(part_path() + ": group " + quoted(path) + ": file already closed");
@@ -345,7 +367,13 @@ void H5Writer::group(const std::string& path) {
   }
   require_group_parents(file_, part_path(), path);
   const Handle lcpl = intermediate_lcpl();
-  const Handle g(H5Gcreate2(file_, path.c_str(), lcpl.get(), H5P_DEFAULT, H5P_DEFAULT), H5Gclose);
+  const Handle gcpl(H5Pcreate(H5P_GROUP_CREATE), H5Pclose);
+  if (!gcpl.ok() ||
+      (creation_order &&
+       H5Pset_link_creation_order(gcpl.get(), H5P_CRT_ORDER_TRACKED | H5P_CRT_ORDER_INDEXED) < 0)) {
+    throw IoError(part_path() + ": cannot create group " + quoted(path) + ": " + hdf5_reason());
+  }
+  const Handle g(H5Gcreate2(file_, path.c_str(), lcpl.get(), gcpl.get(), H5P_DEFAULT), H5Gclose);
   if (!g.ok()) {
     throw IoError(part_path() + ": cannot create group " + quoted(path) + ": " + hdf5_reason());
   }
@@ -354,8 +382,10 @@ void H5Writer::group(const std::string& path) {
 namespace {
 
 // Writes (or replaces) a scalar attribute; `value` points at the memory representation.
+// With `count`, a 1-D attribute of *count elements instead.
 void write_attr(hid_t file, const std::string& file_path, const std::string& object,
-                const std::string& name, hid_t file_type, hid_t mem_type, const void* value) {
+                const std::string& name, hid_t file_type, hid_t mem_type, const void* value,
+                const hsize_t* count = nullptr) {
   const std::string what = "attribute " + quoted(name) + " on " + quoted(object);
   if (!link_exists(file, object)) {
     throw IoError(file_path + ": cannot write " + what + ": no such object");
@@ -367,7 +397,7 @@ void write_attr(hid_t file, const std::string& file_path, const std::string& obj
   if (exists < 0 || (exists > 0 && H5Adelete(obj.get(), name.c_str()) < 0)) {
     throw IoError(file_path + ": cannot replace " + what + ": " + hdf5_reason());
   }
-  const Handle space(H5Screate(H5S_SCALAR), H5Sclose);
+  const Handle space(count ? H5Screate_simple(1, count, nullptr) : H5Screate(H5S_SCALAR), H5Sclose);
   if (!space.ok())
     throw IoError(file_path + ": " + what + ": " + hdf5_reason());
   const Handle attr(
@@ -375,19 +405,9 @@ void write_attr(hid_t file, const std::string& file_path, const std::string& obj
       H5Aclose);
   if (!attr.ok())
     throw IoError(file_path + ": cannot create " + what + ": " + hdf5_reason());
-  if (H5Awrite(attr.get(), mem_type, value) < 0) {
+  if ((count == nullptr || *count > 0) && H5Awrite(attr.get(), mem_type, value) < 0) {
     throw IoError(file_path + ": cannot write " + what + ": " + hdf5_reason());
   }
-}
-
-// Variable-length UTF-8: what h5py reads back as str (fixed-length would come back as bytes).
-Handle utf8_string_type(const std::string& file_path) {
-  Handle t(H5Tcopy(H5T_C_S1), H5Tclose);
-  if (!t.ok() || H5Tset_size(t.get(), H5T_VARIABLE) < 0 ||
-      H5Tset_cset(t.get(), H5T_CSET_UTF8) < 0) {
-    throw IoError(file_path + ": cannot make a string type: " + hdf5_reason());
-  }
-  return t;
 }
 
 }  // namespace
@@ -413,6 +433,19 @@ void H5Writer::attr(const std::string& object, const std::string& name, const st
   const Handle type = utf8_string_type(part_path());
   const char* c_str = value.c_str();
   write_attr(file_, part_path(), object, name, type.get(), type.get(), &c_str);
+}
+
+void H5Writer::attr(const std::string& object, const std::string& name,
+                    const std::vector<std::string>& values) {
+  silence_hdf5();
+  if (done_ || file_ < 0)
+    throw IoError(part_path() + ": attribute " + quoted(name) + ": file already closed");
+  const Handle type = utf8_string_type(part_path());
+  std::vector<const char*> pointers;
+  for (const auto& s : values)
+    pointers.push_back(s.c_str());
+  const hsize_t n = pointers.size();
+  write_attr(file_, part_path(), object, name, type.get(), type.get(), pointers.data(), &n);
 }
 
 void H5Writer::attrs(const std::string& object, const Attributes& list) {
@@ -539,6 +572,58 @@ std::vector<T> read_dataset(hid_t file, const std::string& file_path, const std:
   return out;
 }
 
+// Every element of a string dataset or attribute (`read` reads the whole of it into a buffer
+// of the given memory type): variable-length strings as the library allocates them, freed
+// here; fixed-length ones as raw bytes with the writer's padding undone.
+std::vector<std::string> read_string_elements(hid_t type, hid_t space, const std::string& what,
+                                              const std::function<herr_t(hid_t, void*)>& read) {
+  if (type < 0 || H5Tget_class(type) != H5T_STRING)
+    throw IoError(what + " is not a string");
+  const hssize_t count = H5Sget_simple_extent_npoints(space);
+  if (count < 0)
+    throw IoError(what + ": cannot read the size: " + hdf5_reason());
+  const auto n = static_cast<std::size_t>(count);
+  std::vector<std::string> out;
+  out.reserve(n);
+  const htri_t variable = H5Tis_variable_str(type);
+  if (variable < 0)
+    throw IoError(what + ": " + hdf5_reason());
+  if (variable > 0) {
+    Handle mem(H5Tcopy(H5T_C_S1), H5Tclose);
+    if (!mem.ok() || H5Tset_size(mem.get(), H5T_VARIABLE) < 0 ||
+        H5Tset_cset(mem.get(), H5Tget_cset(type)) < 0) {
+      throw IoError(what + ": " + hdf5_reason());
+    }
+    std::vector<char*> buf(n, nullptr);
+    if (n > 0 && read(mem.get(), buf.data()) < 0)
+      throw IoError(what + ": cannot read: " + hdf5_reason());
+    for (char* c : buf) {
+      out.emplace_back(c != nullptr ? c : "");
+      H5free_memory(c);
+    }
+    return out;
+  }
+  const std::size_t size = H5Tget_size(type);
+  if (size == 0)
+    throw IoError(what + ": " + hdf5_reason());
+  std::string buf(size * n, '\0');
+  if (n > 0 && read(type, buf.data()) < 0)
+    throw IoError(what + ": cannot read: " + hdf5_reason());
+  const bool space_padded = H5Tget_strpad(type) == H5T_STR_SPACEPAD;
+  for (std::size_t k = 0; k < n; ++k) {
+    std::string one = buf.substr(k * size, size);
+    if (space_padded) {
+      one.erase(one.find_last_not_of(' ') + 1);
+    } else {
+      const std::size_t nul = one.find('\0');
+      if (nul != std::string::npos)
+        one.erase(nul);
+    }
+    out.push_back(std::move(one));
+  }
+  return out;
+}
+
 }  // namespace
 
 std::vector<double> H5Reader::read_doubles(const std::string& path) const {
@@ -561,6 +646,24 @@ std::vector<std::uint32_t> H5Reader::read_uint32s(const std::string& path) const
     out[k] = static_cast<std::uint32_t>(wide[k]);
   }
   return out;
+}
+
+std::vector<std::string> H5Reader::read_strings(const std::string& path) const {
+  silence_hdf5();
+  const std::string what = path_ + ": dataset " + quoted(path);
+  const Handle d = open_dataset(file_, path_, path);
+  const Handle type(H5Dget_type(d.get()), H5Tclose);
+  const Handle space(H5Dget_space(d.get()), H5Sclose);
+  if (!space.ok())
+    throw IoError(what + ": " + hdf5_reason());
+  return read_string_elements(type.get(), space.get(), what, [&](hid_t mem, void* buf) {
+    return H5Dread(d.get(), mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf);
+  });
+}
+
+bool H5Reader::is_group(const std::string& path) const {
+  silence_hdf5();
+  return link_exists(file_, path) && jamflow::is_group(file_, path);
 }
 
 std::vector<std::size_t> H5Reader::dims(const std::string& path) const {
@@ -672,6 +775,27 @@ std::string H5Reader::attr_string(const std::string& object, const std::string& 
       buf.erase(nul);
   }
   return buf;
+}
+
+std::vector<std::string> H5Reader::attr_strings(const std::string& object,
+                                                const std::string& name) const {
+  silence_hdf5();
+  const std::string what = path_ + ": attribute " + quoted(name) + " on " + quoted(object);
+  if (!link_exists(file_, object))
+    throw IoError(path_ + ": no object " + quoted(object) + " (looking for attribute " +
+                  quoted(name) + ")");
+  if (H5Aexists_by_name(file_, object.c_str(), name.c_str(), H5P_DEFAULT) <= 0)
+    throw IoError(what + " does not exist");
+  const Handle a(H5Aopen_by_name(file_, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT),
+                 H5Aclose);
+  if (!a.ok())
+    throw IoError(what + ": cannot open: " + hdf5_reason());
+  const Handle type(H5Aget_type(a.get()), H5Tclose);
+  const Handle space(H5Aget_space(a.get()), H5Sclose);
+  if (!space.ok())
+    throw IoError(what + ": " + hdf5_reason());
+  return read_string_elements(type.get(), space.get(), what,
+                              [&](hid_t mem, void* buf) { return H5Aread(a.get(), mem, buf); });
 }
 
 std::vector<std::string> H5Reader::attr_names(const std::string& object) const {

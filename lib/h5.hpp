@@ -37,7 +37,11 @@ class H5Writer {
                const std::vector<std::size_t>& dims = {});
   void dataset(const std::string& path, const std::vector<std::uint32_t>& data,
                const std::vector<std::size_t>& dims = {});
-  void group(const std::string& path);
+  // 1-D, variable-length UTF-8 strings (h5py: f[path].asstr()[()]).
+  void dataset(const std::string& path, const std::vector<std::string>& data);
+  // A group; with `creation_order` its links are listed in the order they are created (h5py
+  // iterates it so, as a table's columns), not by name.
+  void group(const std::string& path, bool creation_order = false);
 
   // Scalar attributes on an existing object (group or dataset; "/" is the root).
   void attr(const std::string& object, const std::string& name, double value);
@@ -46,6 +50,9 @@ class H5Writer {
   void attr(const std::string& object, const std::string& name, const char* value) {
     attr(object, name, std::string(value));
   }
+  // A 1-D array of variable-length UTF-8 strings (h5py: a numpy array of str).
+  void attr(const std::string& object, const std::string& name,
+            const std::vector<std::string>& values);
   void attrs(const std::string& object, const Attributes& list);
 
   // Write the file (it is built in memory) to the temporary file, flush it to disk (fsync) and
@@ -76,10 +83,16 @@ class H5Reader {
   std::vector<std::int64_t> read_ints(const std::string& path) const;
   // Integers that must fit 32 unsigned bits (an IoError otherwise).
   std::vector<std::uint32_t> read_uint32s(const std::string& path) const;
+  // A 1-D string dataset (variable or fixed length), one string per element.
+  std::vector<std::string> read_strings(const std::string& path) const;
   std::vector<std::size_t> dims(const std::string& path) const;
+  // Whether `path` exists and is a group (not a dataset).
+  bool is_group(const std::string& path) const;
   double attr_double(const std::string& object, const std::string& name) const;
   std::int64_t attr_int(const std::string& object, const std::string& name) const;
   std::string attr_string(const std::string& object, const std::string& name) const;
+  // A string attribute of any number of elements (a scalar one gives one string).
+  std::vector<std::string> attr_strings(const std::string& object, const std::string& name) const;
   std::vector<std::string> attr_names(const std::string& object) const;
   std::vector<std::string> children(const std::string& group) const;
 

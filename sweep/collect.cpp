@@ -36,20 +36,22 @@ std::string csv_text(std::string s) {
   return s;
 }
 
-// The table as HDF5 (h5py: f["table"]["phi"][:]): a numeric column (empty cells: NaN) is a
-// dataset /table/<column>; a text column is a string attribute of /table with its cells joined
-// by newlines; the attribute "columns" lists the columns in order, the same way.
+// The table as HDF5: one dataset per column under /table, in the table's order (the group
+// tracks creation order, and the string-array attribute "columns" lists it). A numeric column
+// (every cell a number or empty) is float64 with NaN for empty cells, any other column
+// variable-length UTF-8 strings; "rows" is the number of rows. Readers build a DataFrame from
+// the datasets (docs/guide/sweeps.md).
 void write_h5_table(const std::string& path, const std::vector<std::string>& header,
                     const std::vector<std::vector<std::string>>& table) {
   H5Writer w(path, ".tmp." + std::to_string(::getpid()));
-  w.group("/table");
-  std::string columns;
+  w.group("/table", true);  // h5py lists the columns in the table's order
   for (std::size_t c = 0; c < header.size(); ++c) {
-    columns.append(c ? "\n" : "").append(header[c]);
     std::vector<double> numbers;
-    bool numeric = true;
+    std::vector<std::string> cells;
+    bool numeric = !table.empty();
     for (const auto& row : table) {
       const std::string& cell = row[c];
+      cells.push_back(cell);
       if (cell.empty()) {
         numbers.push_back(std::nan(""));
         continue;
@@ -59,16 +61,12 @@ void write_h5_table(const std::string& path, const std::vector<std::string>& hea
       numeric = numeric && end && *end == '\0';
       numbers.push_back(v);
     }
-    if (numeric && !table.empty()) {
+    if (numeric)
       w.dataset("/table/" + header[c], numbers);
-    } else {
-      std::string text;
-      for (std::size_t r = 0; r < table.size(); ++r)
-        text.append(r ? "\n" : "").append(table[r][c]);
-      w.attr("/table", header[c], text);
-    }
+    else
+      w.dataset("/table/" + header[c], cells);
   }
-  w.attr("/table", "columns", columns);
+  w.attr("/table", "columns", header);
   w.attr("/table", "rows", static_cast<std::int64_t>(table.size()));
   w.commit();
 }

@@ -24,8 +24,9 @@ struct Collected {
 // an older file's force evaluations), folder. With several replicas each _err is
 // the larger of the block error propagated to the mean and the replica scatter error
 // (std / sqrt(R)): the block error alone is too small when blocks are short (README).
-// `path` ends in .csv, or in .h5 for the same table as HDF5 (numeric columns are datasets
-// /table/<column>, text columns string attributes of /table). Written atomically.
+// `path` ends in .csv, or in .h5 for the same table as HDF5: every column a dataset
+// /table/<column> (numbers as float64, NaN where empty; text as UTF-8 strings), the column
+// order in the string-array attribute "columns" of /table. Written atomically.
 Collected collect(const Plan& plan, const std::string& path);
 
 // Every point of the sweep, one row per point in point order, whether it finished or not: the

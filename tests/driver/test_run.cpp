@@ -11,6 +11,8 @@
 #include <map>
 #include <string>
 #include <utility>
+#include <variant>
+#include <vector>
 
 #include "driver/checkpoint.hpp"
 #include "driver/run.hpp"
@@ -388,6 +390,132 @@ TEST(Run, RecordsCpuSecondsAndForcePassEquivalents) {
     // Not a summary value: it describes the run.
     EXPECT_EQ(f.replicas[0].summary.values.count("cpu_seconds"), 0u);
   }
+}
+
+// Whether attribute `name` of `object` is text (a string) rather than a number.
+bool is_text(const H5Reader& h, const std::string& object, const std::string& name) {
+  try {
+    h.attr_string(object, name);
+    return true;
+  } catch (const IoError&) {
+    return false;
+  }
+}
+
+// Every dataset under `group`, recursively.
+void datasets_under(const H5Reader& h, const std::string& group, std::vector<std::string>& out) {
+  for (const auto& name : h.children(group)) {
+    const std::string path = (group == "/" ? "" : group) + "/" + name;
+    if (h.is_group(path))
+      datasets_under(h, path, out);
+    else
+      out.push_back(path);
+  }
+}
+
+// A run file is self-describing: every dataset has the attribute "unit", and every numeric
+// attribute of each /summary group its unit in <summary>/units under the same name, at constant
+// volume and at constant pressure with replicas (a summary value added without a unit fails
+// here). The readers of /summary see the same values as before.
+TEST(Run, EveryDatasetAndSummaryValueOfARunFileHasAUnit) {
+  TempDir dir;
+  RunOptions opt;
+  opt.quiet = true;
+  struct Case {
+    std::string name;
+    std::vector<std::string> sets;
+    std::size_t replicas;
+  };
+  for (const Case& c : {Case{"cv.h5", {}, 1}, Case{"np.h5",
+                                                   {"ensemble.kind=\"constant_pressure\"",
+                                                    "ensemble.pressure=1e-2", "run.replicas=2"},
+                                                   2}}) {
+    const std::string out = dir.file(c.name);
+    std::vector<std::string> sets = c.sets;
+    sets.push_back("output.file=\"" + out + "\"");
+    const RunSpec spec = spec_of(scene_text(60, 0.6, 1e-3, 0.1, 5.0, 20.0), sets);
+    std::vector<ReplicaResult> runs;
+    for (std::size_t k = 0; k < c.replicas; ++k)
+      runs.push_back(run_replica(spec, spec.seed + k, opt));
+    ASSERT_TRUE(write_run_file(spec, runs, out));
+    const H5Reader h(out);
+    std::vector<std::string> datasets;
+    datasets_under(h, "/", datasets);
+    EXPECT_GE(datasets.size(), c.replicas > 1 ? 3 * 13u : 13u) << c.name;
+    for (const auto& d : datasets) {
+      ASSERT_TRUE(h.has_attr(d, "unit")) << c.name << ": " << d;
+      EXPECT_FALSE(h.attr_string(d, "unit").empty()) << c.name << ": " << d;
+    }
+    std::vector<std::string> summaries = {"/summary"};
+    for (std::size_t k = 0; c.replicas > 1 && k < c.replicas; ++k)
+      summaries.push_back("/replicas/" + std::to_string(k) + "/summary");
+    for (const auto& g : summaries) {
+      ASSERT_TRUE(h.is_group(g + "/units")) << c.name << ": " << g;
+      std::size_t numbers = 0;
+      for (const auto& name : h.attr_names(g)) {
+        if (is_text(h, g, name)) {
+          EXPECT_FALSE(h.has_attr(g + "/units", name)) << c.name << ": " << g << " " << name;
+          continue;
+        }
+        ++numbers;
+        ASSERT_TRUE(h.has_attr(g + "/units", name)) << c.name << ": " << g << " " << name;
+        EXPECT_FALSE(h.attr_string(g + "/units", name).empty()) << g << " " << name;
+      }
+      EXPECT_EQ(h.attr_names(g + "/units").size(), numbers) << c.name << ": " << g;
+      EXPECT_EQ(h.attr_string(g + "/units", "eta"), "xi_s/a");
+      EXPECT_EQ(h.attr_string(g + "/units", "eta_err"), "xi_s/a");
+      EXPECT_EQ(h.attr_string(g + "/units", "sigma_xy"), "eps/a^3");
+      EXPECT_EQ(h.attr_string(g + "/units", "shear_rate"), "1/tau_0");
+      EXPECT_EQ(h.attr_string(g + "/units", "tau_sigma_xy"), "tau_0");
+      EXPECT_EQ(h.attr_string(g + "/units", "J"), "1");
+      EXPECT_EQ(h.attr_string(g + "/units", "cpu_seconds"), "s");
+    }
+    EXPECT_EQ(h.attr_string("/timeseries/time", "unit"), "tau_0");
+    EXPECT_EQ(h.attr_string("/timeseries/pressure", "unit"), "eps/a^3");
+    EXPECT_EQ(h.attr_string("/timeseries/dissipation", "unit"), "eps/tau_0");
+    EXPECT_EQ(h.attr_string("/final/positions", "unit"), "a");
+    EXPECT_EQ(h.attr_string("/final/species", "unit"), "1");
+    if (c.replicas > 1) {
+      EXPECT_EQ(h.attr_string("/summary/units", "xi_V"), "xi_s/a^4");
+      EXPECT_EQ(h.attr_string("/summary/units", "imposed_pressure"), "eps/a^3");
+      EXPECT_EQ(h.attr_string("/summary/units", "wall_seconds_total"), "s");
+      EXPECT_EQ(h.attr_string("/replicas/1/timeseries/piston_dissipation", "unit"), "eps/tau_0");
+    }
+    // The readers of /summary take its attributes only: the same values as the run's.
+    const RunFile f = read_run_file(out, true);
+    ASSERT_EQ(f.replicas.size(), c.replicas);
+    for (std::size_t k = 0; k < c.replicas; ++k)
+      EXPECT_EQ(f.replicas[k].summary.values.size(), runs[k].summary.values.size()) << c.name;
+  }
+}
+
+// The units of every integrator's summary counters (Integrator::statistics): a counter added
+// to an integrator without a unit in unit_of fails here. Text has none.
+TEST(Run, EveryIntegratorsSummaryValuesHaveUnits) {
+  RunOptions opt;
+  opt.quiet = true;
+  for (const std::string integrator :
+       {"kind = \"euler\"\ndt = 0.1", "kind = \"respa\"\ndt = 0.1\nn_inner = 2",
+        "kind = \"rkc\"\nrtol = 1e-3\natol = 1e-4", "kind = \"cvode\"\nrtol = 1e-5"}) {
+    const RunSpec spec = spec_of(
+        "[system]\nN = 60\nphi = 0.6\nseed = 3\n[ensemble]\nkind = \"constant_pressure\"\n"
+        "pressure = 1e-2\nxi_V = 0.05\n[shear]\nrate = 1e-2\n[integrator]\n" +
+        integrator + "\n[run]\nt_eq = 1.0\nt_av = 4.0\nsample_every = 1.0\nblocks = 2\n");
+    const ReplicaResult r = run_replica(spec, spec.seed, opt);
+    ASSERT_TRUE(r.status.is_complete()) << integrator << ": " << r.status.text();
+    ASSERT_FALSE(r.integrator_stats.empty()) << integrator;
+    for (const auto& [name, value] : summary_attributes(spec, r)) {
+      if (std::holds_alternative<std::string>(value))
+        EXPECT_EQ(unit_of(name), "") << integrator << ": " << name;
+      else
+        EXPECT_FALSE(unit_of(name).empty()) << integrator << ": " << name;
+    }
+  }
+  EXPECT_EQ(unit_of("integrator_step_last"), "tau_0");
+  EXPECT_EQ(unit_of("integrator_spectral_radius"), "1/tau_0");
+  EXPECT_EQ(unit_of("integrator_atol"), "a");
+  EXPECT_EQ(unit_of("tau_nothing"), "");
+  EXPECT_EQ(unit_of("nothing_err"), "");
 }
 
 // A run file written before CPU time was recorded (no cpu_seconds) is read with its wall

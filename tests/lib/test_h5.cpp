@@ -120,6 +120,83 @@ TEST_F(H5Test, StringAttributesAreVariableLengthUtf8) {
   H5Fclose(f);
 }
 
+// Text columns of a table: a 1-D dataset of variable-length UTF-8 strings, and a list of names
+// as a string-array attribute; both read back element by element, empty strings and an empty
+// list included.
+TEST_F(H5Test, StringDatasetsAndStringArrayAttributesRoundTrip) {
+  const std::string path = file("strings.h5");
+  const std::vector<std::string> cells{"rate-0.1_phi-0.6", "", "φ = 0.62, ξ"};
+  const std::vector<std::string> names{"point", "shear.rate", "status"};
+  {
+    H5Writer w(path);
+    w.group("/table", true);
+    w.dataset("/table/point", cells);
+    w.dataset("/table/none", std::vector<std::string>{});
+    w.attr("/table", "columns", names);
+    w.attr("/table", "no_columns", std::vector<std::string>{});
+    w.attr("/table", "one", "scalar");
+    w.commit();
+  }
+  const H5Reader r(path);
+  EXPECT_EQ(r.read_strings("/table/point"), cells);
+  EXPECT_EQ(r.dims("/table/point"), (std::vector<std::size_t>{3}));
+  EXPECT_TRUE(r.read_strings("/table/none").empty());
+  EXPECT_EQ(r.attr_strings("/table", "columns"), names);
+  EXPECT_TRUE(r.attr_strings("/table", "no_columns").empty());
+  EXPECT_EQ(r.attr_strings("/table", "one"), (std::vector<std::string>{"scalar"}));
+  EXPECT_TRUE(r.is_group("/table"));
+  EXPECT_FALSE(r.is_group("/table/point"));
+  EXPECT_FALSE(r.is_group("/nope"));
+  EXPECT_EQ(r.children("/table"), (std::vector<std::string>{"none", "point"}));  // by name
+  EXPECT_THROW(r.attr_string("/table", "columns"), IoError);  // not a single value
+  EXPECT_THROW(r.read_doubles("/table/point"), IoError);
+  // Stored as h5py reads str: variable-length UTF-8.
+  const hid_t f = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(f, 0);
+  const hid_t d = H5Dopen2(f, "/table/point", H5P_DEFAULT);
+  ASSERT_GE(d, 0);
+  const hid_t t = H5Dget_type(d);
+  EXPECT_GT(H5Tis_variable_str(t), 0);
+  EXPECT_EQ(H5Tget_cset(t), H5T_CSET_UTF8);
+  H5Tclose(t);
+  H5Dclose(d);
+  // The group lists its links in creation order (h5py iterates "point", then "none").
+  const hid_t g = H5Gopen2(f, "/table", H5P_DEFAULT);
+  ASSERT_GE(g, 0);
+  const hid_t gcpl = H5Gget_create_plist(g);
+  unsigned order = 0;
+  EXPECT_GE(H5Pget_link_creation_order(gcpl, &order), 0);
+  EXPECT_EQ(order, unsigned{H5P_CRT_ORDER_TRACKED | H5P_CRT_ORDER_INDEXED});
+  char first[16] = {};
+  EXPECT_GT(H5Lget_name_by_idx(g, ".", H5_INDEX_CRT_ORDER, H5_ITER_INC, 0, first, sizeof first,
+                               H5P_DEFAULT),
+            0);
+  EXPECT_STREQ(first, "point");
+  H5Pclose(gcpl);
+  H5Gclose(g);
+  H5Fclose(f);
+}
+
+// Fixed-length string datasets (other tools write them) read as their strings.
+TEST_F(H5Test, ReadsFixedLengthStringDatasets) {
+  const std::string path = file("fixed_dataset.h5");
+  const hid_t f = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  ASSERT_GE(f, 0);
+  const hsize_t n = 3;
+  const hid_t space = H5Screate_simple(1, &n, nullptr);
+  const hid_t t = H5Tcopy(H5T_C_S1);
+  H5Tset_size(t, 4);
+  H5Tset_strpad(t, H5T_STR_NULLPAD);
+  const hid_t d = H5Dcreate2(f, "s", t, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  ASSERT_GE(d, 0);
+  EXPECT_GE(H5Dwrite(d, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, "ab\0\0cdefg\0\0\0"), 0);
+  H5Dclose(d);
+  H5Tclose(t);
+  H5Sclose(space);
+  H5Fclose(f);
+  EXPECT_EQ(H5Reader(path).read_strings("/s"), (std::vector<std::string>{"ab", "cdef", "g"}));
+}
+
 // Files written by other tools may hold fixed-length strings, null- or space-padded.
 TEST_F(H5Test, ReadsFixedLengthStringAttributes) {
   const std::string path = file("fixed.h5");

@@ -1,9 +1,11 @@
 """jamflow's files in third-party readers (Debian's python3-ase and python3-mdanalysis): the
 extended XYZ and H5MD files a run writes open as they are, with the run's positions and cell;
-an interrupted and resumed run writes the same H5MD trajectory as an uninterrupted one."""
+an interrupted and resumed run writes the same H5MD trajectory as an uninterrupted one; the run
+file's units and a collected HDF5 table read with h5py as the guide says."""
 import os
 import signal
 import subprocess
+import sys
 import threading
 import time
 import warnings
@@ -181,3 +183,91 @@ def test_an_extended_run_continues_its_trajectories(tmp_path):
             for part in ("step", "time", "value"):
                 x, y = a[name][part][()], b[name][part][()]
                 assert x.shape == y.shape and x.tobytes() == y.tobytes(), name + "/" + part
+
+
+def test_run_file_units_read_as_the_guide_says(run_files):
+    # docs/guide/files.md, "Units": a "unit" on every dataset, /summary/units for the numbers.
+    folder, _ = run_files
+    with h5py.File(folder / "r.h5") as f:
+        assert f["timeseries/time"].attrs["unit"] == "tau_0"
+        assert f["summary/units"].attrs["eta"] == "xi_s/a"
+        datasets = []
+        f.visititems(lambda name, obj: datasets.append(obj)
+                     if isinstance(obj, h5py.Dataset) else None)
+        assert datasets and all(d.attrs["unit"] for d in datasets)
+        summary = f["summary"].attrs
+        numbers = {k for k, v in summary.items() if not isinstance(v, str)}
+        assert numbers and numbers == set(f["summary/units"].attrs)
+
+
+def guide_table_snippet():
+    """The Python block of docs/guide/sweeps.md that reads TABLE.h5 with pandas."""
+    guide = os.path.join(os.path.dirname(__file__), "..", "..", "docs", "guide", "sweeps.md")
+    text = open(guide, encoding="utf-8").read()
+    blocks = [b.split("```", 1)[0] for b in text.split("```python\n")[1:]]
+    [snippet] = [b for b in blocks if 'h5py.File("table.h5")' in b]
+    return snippet
+
+
+COLLECT_SWEEP = """
+[sweep]
+replicas = 1
+[sweep.grid]
+"shear.rate" = [1e-1, 1e-2]
+[sweep.zip]
+"integrator.kind" = ["euler", "respa"]
+[scene.system]
+N = 40
+phi = 0.6
+[scene.ensemble]
+kind = "constant_volume"
+[scene.shear]
+rate = 1e-2
+[scene.integrator]
+kind = "euler"
+dt = 0.1
+[scene.run]
+t_eq = 1.0
+t_av = 4.0
+sample_every = 1.0
+blocks = 2
+"""
+
+
+def test_collected_hdf5_table_reads_as_the_csv_table(tmp_path, monkeypatch):
+    # `jamflow sweep --collect table.h5`: every column, text ones included, is an array of the
+    # table's length equal to the CSV column, and the guide's pandas line reads them all (run
+    # here with a stand-in for pandas, which Debian's python3 lacks: DataFrame is the dict).
+    (tmp_path / "two.toml").write_text(COLLECT_SWEEP)
+    bin_ = os.environ.get("JAMFLOW_BIN", "jamflow")
+    for args in (["-q", "-j", "2"], ["--collect", "table.csv"], ["--collect", "table.h5"]):
+        out = subprocess.run([bin_, "sweep", "two.toml", *args], capture_output=True, text=True,
+                             cwd=tmp_path)
+        assert out.returncode == 0, out.stderr
+    import csv
+    with open(tmp_path / "table.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    header = list(rows[0])
+    assert len(rows) == 4
+    import types
+    monkeypatch.setitem(sys.modules, "pandas", types.SimpleNamespace(DataFrame=dict))
+    monkeypatch.chdir(tmp_path)
+    names = {}
+    exec(guide_table_snippet(), names)
+    table = names["table"]
+    assert list(table) == header
+    text = []
+    for c in header:
+        column = table[c]
+        assert isinstance(column, np.ndarray) and column.shape == (len(rows),), c
+        cells = [r[c] for r in rows]
+        if column.dtype.kind == "f":
+            expected = np.array([float(x) if x else np.nan for x in cells])
+            assert column.tobytes() == expected.tobytes(), c
+        else:
+            text.append(c)
+            assert all(isinstance(x, str) for x in column) and list(column) == cells, c
+    assert text == ["point", "integrator.kind", "ensemble", "folder"]
+    with h5py.File(tmp_path / "table.h5") as f:
+        assert list(f["table"]) == header  # h5py lists the columns in the table's order
+        assert f["table"].attrs["rows"] == len(rows)

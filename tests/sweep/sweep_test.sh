@@ -106,9 +106,9 @@ if "$jamflow" sweep six.toml --collect table.h5 > /dev/null &&
   $py -c 'import csv, sys, h5py, numpy as np
 rows = list(csv.DictReader(open("table.csv")))
 t = h5py.File("table.h5")["table"]
-assert t.attrs["columns"].split("\n") == list(rows[0].keys())
+assert list(t.attrs["columns"]) == list(rows[0].keys()) == list(t)
 assert np.array_equal(t["phi"][:], [float(r["phi"]) for r in rows])
-assert t.attrs["point"].split("\n") == [r["point"] for r in rows]'; then
+assert list(t["point"].asstr()[()]) == [r["point"] for r in rows]'; then
   ok "--collect table.h5 holds the CSV table"
 else
   bad "--collect table.h5"

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "driver/run.hpp"
+#include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "sweep/collect.hpp"
 #include "sweep/execute.hpp"
@@ -128,6 +129,75 @@ TEST(SweepPointTable, FailedAndNotRunPointsAreRowsWithTheirStatus) {
   for (const auto& h : expected)
     joined.append(joined.empty() ? "" : ",").append(h);
   EXPECT_EQ(header, joined);
+}
+
+// `jamflow sweep --collect table.h5`: every column of the CSV table is a dataset under /table,
+// text columns (point, ensemble, folder) as strings, numbers as the CSV's values bit for bit
+// (NaN where the CSV is empty), in the order of the attribute "columns".
+TEST(SweepPointTable, CollectedHdf5TableHasEveryColumnAsADataset) {
+  TempDir dir;
+  const Plan plan = three_points(dir.path.string());
+  prepare_out_dir(plan);
+  RunOptions quiet;
+  quiet.quiet = true;
+  for (const Task& task : plan.tasks()) {
+    Scene s = plan.task_scene(task);
+    s.set_value("output.file", toml::value<std::string>(plan.task_file(task)));
+    ASSERT_EQ(run_replicas(parse_run_spec(s), quiet).code, 0);
+  }
+  const std::string csv = (dir.path / "table.csv").string();
+  const std::string h5 = (dir.path / "table.h5").string();
+  ASSERT_EQ(collect(plan, csv).rows, 3u);
+  ASSERT_EQ(collect(plan, h5).rows, 3u);
+  const auto split = [](const std::string& line) {
+    std::vector<std::string> cells;
+    std::stringstream in(line);
+    std::string cell;
+    while (std::getline(in, cell, ','))
+      cells.push_back(cell);
+    if (!line.empty() && line.back() == ',')
+      cells.emplace_back();
+    return cells;
+  };
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);
+  const std::vector<std::string> header = split(line);
+  std::vector<std::vector<std::string>> rows;
+  while (std::getline(in, line))
+    rows.push_back(split(line));
+  ASSERT_EQ(rows.size(), 3u);
+
+  const H5Reader r(h5);
+  EXPECT_EQ(r.attr_strings("/table", "columns"), header);
+  EXPECT_EQ(r.attr_int("/table", "rows"), 3);
+  std::vector<std::string> text;
+  for (std::size_t c = 0; c < header.size(); ++c) {
+    const std::string path = "/table/" + header[c];
+    ASSERT_TRUE(r.exists(path)) << header[c];
+    EXPECT_EQ(r.dims(path), (std::vector<std::size_t>{3})) << header[c];
+    std::vector<std::string> expected;
+    for (const auto& row : rows)
+      expected.push_back(row.at(c));
+    std::vector<double> numbers;
+    try {
+      numbers = r.read_doubles(path);
+    } catch (const IoError&) {
+      text.push_back(header[c]);
+      EXPECT_EQ(r.read_strings(path), expected) << header[c];
+      continue;
+    }
+    for (std::size_t i = 0; i < 3; ++i) {
+      if (expected[i].empty()) {
+        EXPECT_TRUE(std::isnan(numbers[i])) << header[c] << " row " << i;
+      } else {
+        EXPECT_EQ(numbers[i], std::strtod(expected[i].c_str(), nullptr))
+            << header[c] << " row " << i;
+      }
+    }
+  }
+  EXPECT_EQ(text, (std::vector<std::string>{"point", "ensemble", "folder"}));
+  EXPECT_EQ(r.children("/table").size(), header.size());
 }
 
 }  // namespace
