@@ -1,12 +1,17 @@
 #include "lib/table.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <sstream>
 
 #include "lib/error.hpp"
+#include "lib/h5.hpp"
+#include "lib/text_file.hpp"
 
 namespace jamflow {
 
@@ -117,6 +122,50 @@ std::string csv_cell(std::string text) {
       c = ';';
   }
   return text;
+}
+
+void write_csv_table(const std::string& path, const std::vector<std::string>& header,
+                     const std::vector<std::vector<std::string>>& rows) {
+  std::ostringstream os;
+  for (std::size_t i = 0; i < header.size(); ++i)
+    os << (i ? "," : "") << header[i];
+  os << "\n";
+  for (const auto& cells : rows) {
+    for (std::size_t i = 0; i < cells.size(); ++i)
+      os << (i ? "," : "") << cells[i];
+    os << "\n";
+  }
+  write_text_atomically(path, os.str());
+}
+
+void write_h5_table(const std::string& path, const std::vector<std::string>& header,
+                    const std::vector<std::vector<std::string>>& rows) {
+  H5Writer w(path, ".tmp." + std::to_string(::getpid()));
+  w.group("/table", true);  // h5py lists the columns in the table's order
+  for (std::size_t c = 0; c < header.size(); ++c) {
+    std::vector<double> numbers;
+    std::vector<std::string> cells;
+    bool numeric = !rows.empty();
+    for (const auto& row : rows) {
+      const std::string& cell = row[c];
+      cells.push_back(cell);
+      if (cell.empty()) {
+        numbers.push_back(std::nan(""));
+        continue;
+      }
+      char* end = nullptr;
+      const double v = std::strtod(cell.c_str(), &end);
+      numeric = numeric && end && *end == '\0';
+      numbers.push_back(v);
+    }
+    if (numeric)
+      w.dataset("/table/" + header[c], numbers);
+    else
+      w.dataset("/table/" + header[c], cells);
+  }
+  w.attr("/table", "columns", header);
+  w.attr("/table", "rows", static_cast<std::int64_t>(rows.size()));
+  w.commit();
 }
 
 }  // namespace jamflow

@@ -1,5 +1,6 @@
 // Tables of text cells: the collected sweep table (sweep/collect.cpp) and the CSV tables the
-// analyses read. The one reader of their CSV form, used by the analyses and the studies.
+// analyses read. The one reader and writer of their CSV and HDF5 forms, used by the sweeps, the
+// analyses and the studies.
 #pragma once
 #include <cstddef>
 #include <string>
@@ -32,5 +33,17 @@ Table read_csv_table(const std::string& path);
 
 // A cell's text as a CSV table holds it: commas, quotes and line breaks become ';'.
 std::string csv_cell(std::string text);
+
+// Writes the header and rows as CSV (cells as given: csv_cell them first), atomically.
+void write_csv_table(const std::string& path, const std::vector<std::string>& header,
+                     const std::vector<std::vector<std::string>>& rows);
+
+// Writes them as HDF5, atomically: one dataset per column under /table, in the table's order
+// (the group tracks creation order, and the string-array attribute "columns" lists it). A
+// numeric column (every cell a number or empty) is float64 with NaN for empty cells, any other
+// column variable-length UTF-8 strings; the attribute "rows" is the number of rows. Readers
+// build a DataFrame from the datasets (docs/guide/sweeps.md).
+void write_h5_table(const std::string& path, const std::vector<std::string>& header,
+                    const std::vector<std::vector<std::string>>& rows);
 
 }  // namespace jamflow

@@ -1,7 +1,5 @@
 #include "sweep/collect.hpp"
 
-#include <unistd.h>
-
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -12,9 +10,8 @@
 #include "driver/checkpoint.hpp"
 #include "driver/run.hpp"
 #include "lib/error.hpp"
-#include "lib/h5.hpp"
 #include "lib/statistics.hpp"
-#include "lib/text_file.hpp"
+#include "lib/table.hpp"
 #include "sweep/execute.hpp"
 
 namespace jamflow::sweep {
@@ -26,49 +23,6 @@ std::string cell(double v) {
   if (std::isnan(v))
     return "";
   return fmt(v);
-}
-
-std::string csv_text(std::string s) {
-  for (char& c : s) {
-    if (c == ',' || c == '\n' || c == '\r' || c == '"')
-      c = ';';
-  }
-  return s;
-}
-
-// The table as HDF5: one dataset per column under /table, in the table's order (the group
-// tracks creation order, and the string-array attribute "columns" lists it). A numeric column
-// (every cell a number or empty) is float64 with NaN for empty cells, any other column
-// variable-length UTF-8 strings; "rows" is the number of rows. Readers build a DataFrame from
-// the datasets (docs/guide/sweeps.md).
-void write_h5_table(const std::string& path, const std::vector<std::string>& header,
-                    const std::vector<std::vector<std::string>>& table) {
-  H5Writer w(path, ".tmp." + std::to_string(::getpid()));
-  w.group("/table", true);  // h5py lists the columns in the table's order
-  for (std::size_t c = 0; c < header.size(); ++c) {
-    std::vector<double> numbers;
-    std::vector<std::string> cells;
-    bool numeric = !table.empty();
-    for (const auto& row : table) {
-      const std::string& cell = row[c];
-      cells.push_back(cell);
-      if (cell.empty()) {
-        numbers.push_back(std::nan(""));
-        continue;
-      }
-      char* end = nullptr;
-      const double v = std::strtod(cell.c_str(), &end);
-      numeric = numeric && end && *end == '\0';
-      numbers.push_back(v);
-    }
-    if (numeric)
-      w.dataset("/table/" + header[c], numbers);
-    else
-      w.dataset("/table/" + header[c], cells);
-  }
-  w.attr("/table", "columns", header);
-  w.attr("/table", "rows", static_cast<std::int64_t>(table.size()));
-  w.commit();
 }
 
 }  // namespace
@@ -190,7 +144,7 @@ PointTable build_table(const Plan& plan, bool all_points) {
     const bool several = get("replicas") > 1.5;
     std::vector<std::string> cells = {row.point->name};
     for (const auto& [k, val] : row.point->values)
-      cells.push_back(csv_text(val));
+      cells.push_back(csv_cell(val));
     cells.push_back(row.spec.ensemble->name());
     cells.push_back(std::to_string(row.point->n));
     if (all_cp)
@@ -214,7 +168,7 @@ PointTable build_table(const Plan& plan, bool all_points) {
     cells.push_back(!complete ? "" : row.cpu_from_wall ? "1" : "0");
     cells.push_back(cell(complete ? row.force_evaluations : none));
     cells.push_back(cell(complete ? row.equivalents : none));
-    cells.push_back(csv_text(fs::relative(plan.point_dir(*row.point), plan.out_dir).string()));
+    cells.push_back(csv_cell(fs::relative(plan.point_dir(*row.point), plan.out_dir).string()));
     for (const auto& o : observables) {
       cells.push_back(cell(get(o + "_err")));
       cells.push_back(cell(several ? get(o + "_replica_err") : std::nan("")));
@@ -242,16 +196,7 @@ Collected collect(const Plan& plan, const std::string& path) {
   const auto& header = t.header;
   const auto& table = t.rows;
   if (ext == ".csv") {
-    std::ostringstream os;
-    for (std::size_t i = 0; i < header.size(); ++i)
-      os << (i ? "," : "") << header[i];
-    os << "\n";
-    for (const auto& cells : table) {
-      for (std::size_t i = 0; i < cells.size(); ++i)
-        os << (i ? "," : "") << cells[i];
-      os << "\n";
-    }
-    write_text_atomically(path, os.str());
+    write_csv_table(path, header, table);
   } else {
     write_h5_table(path, header, table);
   }

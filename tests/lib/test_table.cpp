@@ -85,6 +85,19 @@ TEST(Table, ErrorsNameTheFileAndLine) {
   }
 }
 
+// What write_csv_table writes, read_csv_table reads back cell for cell.
+TEST(Table, WrittenCsvReadsBack) {
+  TableFile f("");
+  const std::vector<std::string> header{"point", "phi", "status"};
+  const std::vector<std::vector<std::string>> rows{
+      {"a", "0.62", csv_cell("failed at t = 3: no, really")}, {"b", "", "complete"}};
+  write_csv_table(f.path(), header, rows);
+  const Table t = read_csv_table(f.path());
+  EXPECT_EQ(t.header, header);
+  EXPECT_EQ(t.rows, rows);
+  EXPECT_EQ(t.text(0, "status"), "failed at t = 3: no; really");
+}
+
 TEST(Table, CsvCellsHoldNoSeparators) {
   EXPECT_EQ(csv_cell("a,b\n\"c\"\r"), "a;b;;c;;");
   EXPECT_EQ(csv_cell("plain text"), "plain text");
