@@ -277,6 +277,33 @@ TEST(Run, RunFileReadsBackTheRun) {
   }
 }
 
+// A constant-volume run and a two-replica constant-pressure run of 60 particles, written into
+// `dir` (cv.h5, np.h5), with their specs and replicas as run.
+struct WrittenRun {
+  std::string name, path;
+  RunSpec spec;
+  std::vector<ReplicaResult> runs;
+};
+std::vector<WrittenRun> write_cv_and_np_runs(const TempDir& dir) {
+  RunOptions opt;
+  opt.quiet = true;
+  std::vector<WrittenRun> out;
+  for (const auto& [name, sets] :
+       {std::pair<std::string, std::vector<std::string>>{"cv.h5", {}},
+        {"np.h5",
+         {"ensemble.kind=\"constant_pressure\"", "ensemble.pressure=1e-2", "run.replicas=2"}}}) {
+    WrittenRun w{name, dir.file(name), {}, {}};
+    std::vector<std::string> all = sets;
+    all.push_back("output.file=\"" + w.path + "\"");
+    w.spec = spec_of(scene_text(60, 0.6, 1e-3, 0.1, 5.0, 20.0), all);
+    for (std::int64_t k = 0; k < w.spec.replicas; ++k)
+      w.runs.push_back(run_replica(w.spec, w.spec.seed + static_cast<std::uint64_t>(k), opt));
+    EXPECT_TRUE(write_run_file(w.spec, w.runs, w.path)) << name;
+    out.push_back(std::move(w));
+  }
+  return out;
+}
+
 // A checkpoint names the timeseries group that holds its replica's series instead of storing
 // it a second time (only piston_dissipation, which a constant-volume timeseries lacks, is
 // kept); it reads back every sample bit for bit, and a file written before that (the whole
@@ -293,25 +320,14 @@ TEST(Run, CheckpointStoresTheSeriesOnce) {
           return false;
     return true;
   };
-  RunOptions opt;
-  opt.quiet = true;
-  struct Case {
-    std::string name;
-    std::vector<std::string> sets;
-    std::size_t replicas;
-  };
-  for (const Case& c : {Case{"cv.h5", {}, 1}, Case{"np.h5",
-                                                   {"ensemble.kind=\"constant_pressure\"",
-                                                    "ensemble.pressure=1e-2", "run.replicas=2"},
-                                                   2}}) {
-    const std::string out = dir.file(c.name);
-    std::vector<std::string> sets = c.sets;
-    sets.push_back("output.file=\"" + out + "\"");
-    RunSpec spec = spec_of(scene_text(60, 0.6, 1e-3, 0.1, 5.0, 20.0), sets);
-    std::vector<ReplicaResult> runs;
-    for (std::size_t k = 0; k < c.replicas; ++k)
-      runs.push_back(run_replica(spec, spec.seed + k, opt));
-    ASSERT_TRUE(write_run_file(spec, runs, out));
+  for (const WrittenRun& w : write_cv_and_np_runs(dir)) {
+    const std::string& out = w.path;
+    const auto& runs = w.runs;
+    const RunSpec& spec = w.spec;
+    struct {
+      std::string name;
+      std::size_t replicas;
+    } c{w.name, runs.size()};
     {
       H5Reader h(out);
       for (std::size_t k = 0; k < c.replicas; ++k) {
@@ -419,25 +435,13 @@ void datasets_under(const H5Reader& h, const std::string& group, std::vector<std
 // here). The readers of /summary see the same values as before.
 TEST(Run, EveryDatasetAndSummaryValueOfARunFileHasAUnit) {
   TempDir dir;
-  RunOptions opt;
-  opt.quiet = true;
-  struct Case {
-    std::string name;
-    std::vector<std::string> sets;
-    std::size_t replicas;
-  };
-  for (const Case& c : {Case{"cv.h5", {}, 1}, Case{"np.h5",
-                                                   {"ensemble.kind=\"constant_pressure\"",
-                                                    "ensemble.pressure=1e-2", "run.replicas=2"},
-                                                   2}}) {
-    const std::string out = dir.file(c.name);
-    std::vector<std::string> sets = c.sets;
-    sets.push_back("output.file=\"" + out + "\"");
-    const RunSpec spec = spec_of(scene_text(60, 0.6, 1e-3, 0.1, 5.0, 20.0), sets);
-    std::vector<ReplicaResult> runs;
-    for (std::size_t k = 0; k < c.replicas; ++k)
-      runs.push_back(run_replica(spec, spec.seed + k, opt));
-    ASSERT_TRUE(write_run_file(spec, runs, out));
+  for (const WrittenRun& w : write_cv_and_np_runs(dir)) {
+    const std::string& out = w.path;
+    const auto& runs = w.runs;
+    struct {
+      std::string name;
+      std::size_t replicas;
+    } c{w.name, runs.size()};
     const H5Reader h(out);
     std::vector<std::string> datasets;
     datasets_under(h, "/", datasets);

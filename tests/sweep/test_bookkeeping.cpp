@@ -12,22 +12,14 @@
 #include "lib/h5.hpp"
 #include "sweep/execute.hpp"
 #include "sweep/plan.hpp"
+#include "tests/sweep/temp_dir.hpp"
 
 namespace jamflow::sweep {
 namespace {
 namespace fs = std::filesystem;
 
-// A fresh folder, removed at the end.
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::string t = (fs::temp_directory_path() / "jamflow-bookkeeping-XXXXXX").string();
-    path = ::mkdtemp(t.data());
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
+struct TempDir : testing_support::TempDir {
+  TempDir() : testing_support::TempDir("jamflow-bookkeeping") {}
 };
 
 // A sweep of `points` points (one replica each) on the shear rate.

@@ -17,21 +17,14 @@
 #include "sweep/collect.hpp"
 #include "sweep/execute.hpp"
 #include "sweep/plan.hpp"
+#include "tests/sweep/temp_dir.hpp"
 
 namespace jamflow::sweep {
 namespace {
 namespace fs = std::filesystem;
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::string t = (fs::temp_directory_path() / "jamflow-point-table-XXXXXX").string();
-    path = ::mkdtemp(t.data());
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
+struct TempDir : testing_support::TempDir {
+  TempDir() : testing_support::TempDir("jamflow-point-table") {}
 };
 
 // Three points of a tiny run on the shear rate.
