@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "driver/run_summary.hpp"
+
 namespace jamflow::analysis {
 
 // What a point's errors are made of. A mean over replicas has a block error and a replica
@@ -72,25 +74,11 @@ PointErrors point_errors_of(const std::vector<ShearPoint>& points);
 // One sentence: "Point errors: 20 of 27 points ... ; 7 ...".
 std::string describe(const PointErrors& e);
 
-// The /summary group and root attributes of one `jamflow run` output file.
-struct RunSummary {
-  std::string path;
-  std::string scene, version, git_commit, created;
-  std::string ensemble;  // "constant_volume" or "constant_pressure"
-  std::int64_t n = 0;
-  double sigma_xy = 0, sigma_xy_err = 0, pressure = 0, pressure_err = 0;
-  double phi = 0, phi_err = 0, eta = 0, eta_err = 0, mu = 0, mu_err = 0;
-  double j = 0, energy_balance = 0, shear_rate = 0, alpha = 0;
-  // Several replicas: their count and the replica-scatter errors (NaN when absent; the *_err
-  // above are then the block errors of the mean over replicas).
-  double replicas = 1;
-  double sigma_xy_replica_err = 0, pressure_replica_err = 0, phi_replica_err = 0,
-         mu_replica_err = 0;
-  bool has_imposed_pressure = false;
-  double imposed_pressure = 0;
-};
+// The /summary group and root attributes of one `jamflow run` output file (the run-file
+// module's reader, driver/run_summary.hpp).
+using RunSummary = jamflow::RunFileSummary;
 
-// Reads one run file with the HDF5 C API. Throws InputError naming the file
+// Reads one run file (read_run_file_summary). Throws InputError naming the file
 // and the missing or mistyped attribute. libhdf5 runs in a forked child
 // process (at most 20 s, at most 4 GiB more address space): a corrupt file on
 // which libhdf5 itself crashes, hangs or exhausts memory is an InputError

@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <exception>
 #include <filesystem>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -17,7 +16,6 @@
 #include "integrators/registry.hpp"
 #include "lib/cli_exit.hpp"
 #include "lib/error.hpp"
-#include "lib/h5.hpp"
 #include "lib/version.hpp"
 #include "studies/compare/compare.hpp"
 #include "studies/study.hpp"
@@ -102,28 +100,19 @@ int run_command(const std::vector<std::string>& args) {
                     : "run.threads (a continued run keeps its scene)"));
     }
     // A file that is not a run's (or not there) is bad input, named with its option.
-    std::optional<jamflow::H5Reader> opened;
-    std::string status;
+    const std::string option = extend ? "--extend" : "--resume";
+    jamflow::RunStatus status;
     try {
-      opened.emplace(from);
-      scene = jamflow::Scene::parse(opened->attr_string("/", "scene"), from);
-      status = opened->attr_string("/", "status");
-      output.continue_from = jamflow::read_checkpoint(*opened);
-      jamflow::check_checkpoint_matches(*opened, *output.continue_from,
-                                        extend ? "--extend" : "--resume", from);
-      // The summaries of the finished replicas, which a continuation keeps where it does not
-      // extend them (/checkpoint holds no summary).
-      opened.reset();
-      const jamflow::RunFile file = jamflow::read_run_file(from, false);
-      for (std::size_t k = 0; k < output.continue_from->size() && k < file.replicas.size(); ++k)
-        if ((*output.continue_from)[k].status.is_complete())
-          (*output.continue_from)[k].summary = file.replicas[k].summary;
+      jamflow::Continuation c = jamflow::read_continuation(from, option);
+      scene = jamflow::Scene::parse(c.scene, from);
+      status = c.status;
+      output.continue_from = std::move(c.replicas);
     } catch (const jamflow::IoError& e) {
-      throw jamflow::ConfigError(std::string(extend ? "--extend" : "--resume") + " '" + from +
-                                 "': " + e.what() + "; allowed a jamflow run file");
+      throw jamflow::ConfigError(option + " '" + from + "': " + e.what() +
+                                 "; allowed a jamflow run file");
     }
-    if (extend && status != "complete")
-      throw jamflow::ConfigError("--extend '" + from + "': the run's status is \"" + status +
+    if (extend && !status.is_complete())
+      throw jamflow::ConfigError("--extend '" + from + "': the run's status is \"" + status.text() +
                                  "\"; allowed finished runs (continue others with --resume)");
     output.extend = extend;
     const std::string out = extend ? from : from.substr(0, from.size() - part.size());

@@ -363,6 +363,22 @@ RunFile read_run_file(const std::string& path, bool everything) {
   return f;
 }
 
+Continuation read_continuation(const std::string& path, const std::string& option) {
+  Continuation c;
+  {
+    const H5Reader r(path);
+    c.scene = r.attr_string("/", "scene");
+    c.status = RunStatus::parse(r.attr_string("/", "status"));
+    c.replicas = read_checkpoint(r);
+    check_checkpoint_matches(r, c.replicas, option, path);
+  }
+  const RunFile file = read_run_file(path, false);
+  for (std::size_t k = 0; k < c.replicas.size() && k < file.replicas.size(); ++k)
+    if (c.replicas[k].status.is_complete())
+      c.replicas[k].summary = file.replicas[k].summary;
+  return c;
+}
+
 RunStatus read_run_status(const std::string& path) {
   try {
     const H5Reader r(path);

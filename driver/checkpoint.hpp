@@ -93,6 +93,17 @@ struct RunFile {
 };
 RunFile read_run_file(const std::string& path, bool everything = true);
 
+// A run file opened to be continued by `option` (--resume or --extend): its scene text and
+// status, and its checkpointed replicas (check_checkpoint_matches passed), the finished ones
+// with their summaries (which a continuation keeps where it does not extend them; /checkpoint
+// holds none). An IoError says what makes it no run file; a ConfigError, a digest mismatch.
+struct Continuation {
+  std::string scene;
+  RunStatus status;
+  std::vector<ReplicaResult> replicas;
+};
+Continuation read_continuation(const std::string& path, const std::string& option);
+
 // The root attribute "status" of a run file, or (never throwing) kUnreadable with why: a file
 // that cannot be opened, or has no status.
 RunStatus read_run_status(const std::string& path);
