@@ -231,7 +231,8 @@ int analyze_main(const std::vector<std::string>& args) {
   CLI::App app{
       "Analyses of state-point summaries (SPEC §5): granular rheology in the hard-sphere and "
       "large-N limits, soft granular rheology, Olsson–Teitel collapse quality.\n"
-      "DATA are CSV tables (N,P,gdot,phi,phi_err,mu,mu_err or N,phi,gdot,sigma_xy,sigma_xy_err) "
+      "DATA are CSV tables (N,imposed_pressure,shear_rate,phi,phi_err,mu,mu_err or "
+      "N,phi,shear_rate,sigma_xy,sigma_xy_err) "
       "or run files written by `jamflow run`.",
       kProgram};
   app.require_subcommand(1);
@@ -305,8 +306,12 @@ int analyze_main(const std::vector<std::string>& args) {
   CLI::Option* split_delta_opt =
       ot->add_option("--split-delta", split_delta,
                      "near/far split in |phi - phi_J| (default: median over points)");
-  CLI::Option* split_gdot_opt = ot->add_option(
-      "--split-gdot", split_gdot, "slow/fast split in gdot (default: geometric median)");
+  CLI::Option* split_gdot_opt =
+      ot->add_option("--split-shear-rate", split_gdot,
+                     "slow/fast split in the shear rate (default: geometric median)");
+  // The option's deprecated name, still accepted (hidden from --help, warned about).
+  CLI::Option* split_gdot_old =
+      ot->add_option("--split-gdot", split_gdot)->group("")->excludes(split_gdot_opt);
   CLI::Option* size_opt =
       ot->add_option("--size", size, "system size N to analyse when the data hold several");
   CLI::App* fc = app.add_subcommand(
@@ -397,7 +402,9 @@ int analyze_main(const std::vector<std::string>& args) {
     o.min_overlap = min_overlap;
     if (split_delta_opt->count() > 0)
       o.split_delta = split_delta;
-    if (split_gdot_opt->count() > 0)
+    if (split_gdot_old->count() > 0)
+      std::fprintf(stderr, "warning: --split-gdot is deprecated; use --split-shear-rate\n");
+    if (split_gdot_opt->count() > 0 || split_gdot_old->count() > 0)
       o.split_gdot = split_gdot;
     std::optional<std::int64_t> only;
     if (size_opt->count() > 0)

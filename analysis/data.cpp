@@ -29,6 +29,7 @@
 #include "analysis/json.hpp"
 #include "driver/run_summary.hpp"
 #include "lib/error.hpp"
+#include "lib/names.hpp"
 #include "lib/statistics.hpp"
 #include "lib/table.hpp"
 
@@ -98,7 +99,8 @@ void check_positive(const std::string& where, const std::string& name, double v)
 // J = gdot / P of a row whose gdot and P are each in range may still overflow or underflow.
 void check_viscous_number(const std::string& where, double j) {
   if (!std::isnormal(j) || !(j > 0.0))
-    range_error(where, "J = gdot / P", j, "must be a finite number of at least 2.2e-308");
+    range_error(where, "J = shear_rate / imposed_pressure", j,
+                "must be a finite number of at least 2.2e-308");
 }
 
 void check_phi(const std::string& where, double v) {
@@ -111,9 +113,14 @@ void check_finite(const std::string& where, const std::string& name, double v) {
     range_error(where, name, v, "must be finite");
 }
 
-const std::vector<std::string> kGranularColumns = {"N",       "P",  "gdot",  "phi",
-                                                   "phi_err", "mu", "mu_err"};
-const std::vector<std::string> kShearColumns = {"N", "phi", "gdot", "sigma_xy", "sigma_xy_err"};
+// The column names of lib/names.hpp; tables with the deprecated gdot and P are renamed to them
+// by the table reader, with a warning.
+const std::string kShearRateColumn(names::kShearRate);
+const std::string kImposedPressureColumn(names::kImposedPressure);
+const std::vector<std::string> kGranularColumns = {
+    "N", kImposedPressureColumn, kShearRateColumn, "phi", "phi_err", "mu", "mu_err"};
+const std::vector<std::string> kShearColumns = {"N", "phi", kShearRateColumn, "sigma_xy",
+                                                "sigma_xy_err"};
 
 std::string join(const std::vector<std::string>& xs) {
   std::string out;
@@ -244,20 +251,20 @@ GranularPoint granular_from_row(const Table& t, std::size_t r) {
   GranularPoint p;
   p.source = t.path + ":" + std::to_string(t.lines[r]);
   p.n = field_size(t, r, "N");
-  p.pressure = field_number(t, r, "P");
-  p.shear_rate = field_number(t, r, "gdot");
+  p.pressure = field_number(t, r, kImposedPressureColumn);
+  p.shear_rate = field_number(t, r, kShearRateColumn);
   p.phi = field_number(t, r, "phi");
   p.phi_err = field_number(t, r, "phi_err");
   p.mu = field_number(t, r, "mu");
   p.mu_err = field_number(t, r, "mu_err");
   p.error_basis = row_errors(t, r, {{"phi", &p.phi_err}, {"mu", &p.mu_err}}, p.replicas);
-  check_positive(p.source + ": column 'P'", "P", p.pressure);
-  check_positive(p.source + ": column 'gdot'", "gdot", p.shear_rate);
+  check_positive(p.source + ": column 'imposed_pressure'", kImposedPressureColumn, p.pressure);
+  check_positive(p.source + ": column 'shear_rate'", kShearRateColumn, p.shear_rate);
   check_phi(p.source + ": column 'phi'", p.phi);
   check_positive(p.source + ": column 'phi_err'", "phi_err", p.phi_err);
   check_positive(p.source + ": column 'mu_err'", "mu_err", p.mu_err);
   p.j = p.shear_rate / p.pressure;
-  check_viscous_number(p.source + ": columns 'gdot' and 'P'", p.j);
+  check_viscous_number(p.source + ": columns 'shear_rate' and 'imposed_pressure'", p.j);
   return p;
 }
 
@@ -265,7 +272,7 @@ std::string set_label_volume(std::int64_t n, double phi) {
   return "N=" + std::to_string(n) + ",phi=" + format_key(phi);
 }
 std::string set_label_pressure(std::int64_t n, double p) {
-  return "N=" + std::to_string(n) + ",P=" + format_key(p);
+  return "N=" + std::to_string(n) + ",imposed_pressure=" + format_key(p);
 }
 
 ShearPoint shear_from_row(const Table& t, std::size_t r, TableForm form) {
@@ -273,9 +280,9 @@ ShearPoint shear_from_row(const Table& t, std::size_t r, TableForm form) {
   s.source = t.path + ":" + std::to_string(t.lines[r]);
   s.n = field_size(t, r, "N");
   s.phi = field_number(t, r, "phi");
-  s.shear_rate = field_number(t, r, "gdot");
+  s.shear_rate = field_number(t, r, kShearRateColumn);
   check_phi(s.source + ": column 'phi'", s.phi);
-  check_positive(s.source + ": column 'gdot'", "gdot", s.shear_rate);
+  check_positive(s.source + ": column 'shear_rate'", kShearRateColumn, s.shear_rate);
   if (form == TableForm::kShear) {
     s.sigma = field_number(t, r, "sigma_xy");
     s.sigma_err = field_number(t, r, "sigma_xy_err");

@@ -56,7 +56,7 @@ struct ShearPoint {
   // (VerdictAdmission::include_failed): why, e.g. "not steady".
   std::string failed_verdicts;
   // The curve the point belongs to: constant volume -> "N=..,phi=..";
-  // constant pressure -> "N=..,P=..". The collapse measure never compares a
+  // constant pressure -> "N=..,imposed_pressure=..". The collapse measure never compares a
   // point with its own curve.
   std::string set;
   std::string source;

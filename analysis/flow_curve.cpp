@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <string_view>
 #include <tuple>
 
 #include "analysis/errors.hpp"
@@ -79,10 +80,11 @@ void run_fit(FlowFit& out, const std::string& what, const std::vector<ParameterB
   }
 }
 
-// The imposed pressure of a constant-pressure curve, from its label "N=..,P=..".
+// The imposed pressure of a constant-pressure curve, from its label "N=..,imposed_pressure=..".
+constexpr std::string_view kPressureLabel = ",imposed_pressure=";
 double pressure_of(const std::string& set) {
-  const auto at = set.find(",P=");
-  return at == std::string::npos ? 0.0 : std::stod(set.substr(at + 3));
+  const auto at = set.find(kPressureLabel);
+  return at == std::string::npos ? 0.0 : std::stod(set.substr(at + kPressureLabel.size()));
 }
 
 }  // namespace
@@ -196,7 +198,7 @@ FlowCurveResult analyze_flow_curves(const std::vector<ShearPoint>& points,
     FlowCurve c;
     c.set = set;
     c.n = pts.front().n;
-    c.constant_pressure = set.find(",P=") != std::string::npos;
+    c.constant_pressure = set.find(kPressureLabel) != std::string::npos;
     c.state = c.constant_pressure ? pressure_of(set) : pts.front().phi;
     c.points = pts;
     std::vector<std::string> failed;
@@ -246,7 +248,7 @@ FlowCurveResult analyze_flow_curves(const std::vector<ShearPoint>& points,
       g.constant_pressure = c.constant_pressure;
       g.label = c.constant_pressure
                     ? c.set
-                    : "N=" + std::to_string(c.n) + ",gdot=" + format_key(p.shear_rate);
+                    : "N=" + std::to_string(c.n) + ",shear_rate=" + format_key(p.shear_rate);
       if (!jammed.empty())
         g.left_out.push_back({p.source, jammed});
       else

@@ -62,7 +62,7 @@ struct FlowCurve {
 
 // eta(phi) over a group: constant volume at one gdot, or constant pressure at one P.
 struct Divergence {
-  std::string group;  // "N=1000,gdot=1e-05" or "N=1000,P=0.0001"
+  std::string group;  // "N=1000,shear_rate=1e-05" or "N=1000,imposed_pressure=0.0001"
   std::int64_t n = 0;
   bool constant_pressure = false;
   std::vector<double> phi, eta, eta_err;  // the points used, ascending phi

@@ -101,7 +101,7 @@ Json model_curve(const FlowFit& f, double lo, double hi, bool hb) {
     y.push_back(hb ? f.fit.params[0] + f.fit.params[1] * std::pow(g, f.fit.params[2])
                    : f.fit.params[0] * std::pow(g, f.fit.params[1]));
   }
-  j["gdot"] = Json(x);
+  j["shear_rate"] = Json(x);
   j["sigma_xy"] = Json(y);
   return j;
 }
@@ -125,11 +125,11 @@ Json flow_curve_json(const FlowCurveResult& r, const std::vector<std::string>& i
     o["curve"] = c.set;
     o["N"] = c.n;
     o["ensemble"] = c.constant_pressure ? "constant_pressure" : "constant_volume";
-    o[c.constant_pressure ? "P" : "phi"] = c.state;
+    o[c.constant_pressure ? "imposed_pressure" : "phi"] = c.state;
     Json pts = Json::array();
     for (const auto& p : c.points) {
       Json q = Json::object();
-      q["gdot"] = p.shear_rate;
+      q["shear_rate"] = p.shear_rate;
       q["sigma_xy"] = p.sigma;
       q["sigma_xy_err"] = p.sigma_err;
       q["phi"] = p.phi;
@@ -222,7 +222,7 @@ Json flow_curve_plot_data(const FlowCurveResult& r) {
       e.push_back(p.sigma_err);
       failed.push_back(p.failed_verdicts.empty() ? 0.0 : 1.0);
     }
-    o["gdot"] = Json(g);
+    o["shear_rate"] = Json(g);
     o["sigma_xy"] = Json(s);
     o["sigma_xy_err"] = Json(e);
     o["failed"] = Json(failed);

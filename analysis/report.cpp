@@ -523,7 +523,7 @@ void envelope_points_json(Json& js, const std::vector<EnvelopePoint>& points) {
     mu_err.push_back(e.point.mu_err);
     status.push_back(to_string(e.status));
   }
-  js["P"] = Json(p);
+  js["imposed_pressure"] = Json(p);
   js["J"] = Json(jj);
   js["phi"] = Json(phi);
   js["phi_err"] = Json(phi_err);
@@ -769,7 +769,7 @@ Json joint_soft_json(const JointSoftFit& f, const YieldComparison* yield) {
       pull.push_back(p.pull);
     }
     y["phi"] = Json(phi);
-    y["gdot"] = Json(gdot);
+    y["shear_rate"] = Json(gdot);
     y["sigma_xy"] = Json(sig);
     y["sigma_xy_err"] = Json(sige);
     y["sigma_law"] = Json(law);
@@ -1042,7 +1042,7 @@ Json soft_plot_data(const SoftResult& r) {
       mu.push_back(g.mu);
       mu_err.push_back(g.mu_err);
     }
-    js["P"] = Json(p);
+    js["imposed_pressure"] = Json(p);
     js["J"] = Json(jj);
     js["phi"] = Json(phi);
     js["phi_err"] = Json(phi_err);
@@ -1155,7 +1155,7 @@ Json olsson_teitel_json(const OlssonTeitelResult& r, const OlssonTeitelOptions& 
   }
   Json splits = Json::object();
   splits["delta_phi"] = r.split_delta;
-  splits["gdot"] = r.split_gdot;
+  splits["shear_rate"] = r.split_gdot;
   j["subset_splits"] = splits;
   j["subsets"] = subsets;
   {
@@ -1299,7 +1299,7 @@ Json olsson_teitel_plot_data(const OlssonTeitelResult& r, const std::vector<Shea
   }
   Json flow = Json::object();
   flow["phi"] = Json(phi);
-  flow["gdot"] = Json(gdot);
+  flow["shear_rate"] = Json(gdot);
   flow["sigma_xy"] = Json(sigma);
   flow["sigma_xy_err"] = Json(sigma_err);
   if (r.soft) {
@@ -1325,7 +1325,7 @@ Json olsson_teitel_plot_data(const OlssonTeitelResult& r, const std::vector<Shea
       }
       Json c = Json::object();
       c["phi"] = ph;
-      c["gdot"] = Json(g);
+      c["shear_rate"] = Json(g);
       c["sigma"] = Json(sg);
       curves.push_back(c);
     }

@@ -422,8 +422,8 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
     report.on_sample = [&](long long, double t_rel) {
       const Sample& last = res.series.samples.back();
       char extra[160];
-      std::snprintf(extra, sizeof extra, "phi %.5f  P %.3e  sigma_xy %.3e", last.phi, last.pressure,
-                    last.sigma_xy);
+      std::snprintf(extra, sizeof extra, "phi %.5f  pressure %.3e  sigma_xy %.3e", last.phi,
+                    last.pressure, last.sigma_xy);
       progress.update(t_rel, extra);
     };
     control.on_attend = attend;

@@ -3,6 +3,7 @@
 
 #include "ensembles/registry.hpp"
 #include "lib/error.hpp"
+#include "lib/names.hpp"
 
 namespace jamflow {
 
@@ -16,7 +17,7 @@ ConstantPressure::ConstantPressure(double shear_rate, double pressure, double xi
 
 void ConstantPressure::describe(Attributes& out) const {
   Ensemble::describe(out);
-  out.emplace_back("imposed_pressure", pressure_);
+  out.emplace_back(std::string(names::kImposedPressure), pressure_);
   out.emplace_back("xi_V", xi_v_);
 }
 

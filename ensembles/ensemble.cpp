@@ -2,6 +2,9 @@
 #include "ensembles/ensemble.hpp"
 
 #include <cmath>
+#include <string>
+
+#include "lib/names.hpp"
 
 namespace jamflow {
 
@@ -19,7 +22,7 @@ double Ensemble::volume_rate_slope(double p_hat) const {
 
 void Ensemble::describe(Attributes& out) const {
   out.emplace_back("ensemble", name());
-  out.emplace_back("shear_rate", shear_rate());
+  out.emplace_back(std::string(names::kShearRate), shear_rate());
 }
 
 }  // namespace jamflow

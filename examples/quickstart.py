@@ -41,8 +41,8 @@ scene = "base.toml"
 """)
 (out / "base.toml").write_text(scene.text)
 table = jamflow.sweep(sweep_file, out=out / "rates.sweep", jobs=2)
-for point, gdot, eta in zip(table["point"], table["gdot"], table["eta"]):
-    print(f"{point}: gdot = {gdot:g}, eta = {eta:.4g}")
+for point, rate, eta in zip(table["point"], table["shear_rate"], table["eta"]):
+    print(f"{point}: shear_rate = {rate:g}, eta = {eta:.4g}")
 
 # 3. The run file with h5py: the same numbers as the result in memory.
 with h5py.File(out / "point.h5") as f:
@@ -52,7 +52,7 @@ with h5py.File(out / "point.h5") as f:
 
 # 4. A plot: the flow curve of the sweep and the stress of the single run.
 fig, (left, right) = plt.subplots(1, 2, figsize=(8, 3.2))
-left.errorbar(table["gdot"], table["eta"], yerr=table["eta_err"], marker="o")
+left.errorbar(table["shear_rate"], table["eta"], yerr=table["eta_err"], marker="o")
 left.set(xscale="log", yscale="log", xlabel="shear rate", ylabel="eta")
 right.plot(result.timeseries["time"], result.timeseries["sigma_xy"])
 right.set(xlabel="time", ylabel="sigma_xy")

@@ -5,12 +5,14 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
 
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
+#include "lib/names.hpp"
 #include "lib/text_file.hpp"
 
 namespace jamflow {
@@ -42,6 +44,25 @@ std::vector<std::string> split_line(const std::string& line) {
 }
 
 }  // namespace
+
+void rename_deprecated_columns(Table& table) {
+  for (const auto& [old_name, name] : names::kDeprecatedColumns) {
+    const int c = table.column(old_name);
+    if (c < 0)
+      continue;
+    const std::string where = table.path.empty() ? "table" : table.path;
+    if (table.column(name) >= 0) {
+      std::fprintf(stderr,
+                   "warning: %s: column '%s' is ignored: it is the deprecated name of '%s', which "
+                   "the table also has\n",
+                   where.c_str(), std::string(old_name).c_str(), std::string(name).c_str());
+      continue;
+    }
+    std::fprintf(stderr, "warning: %s: column '%s' is deprecated; read as '%s'\n", where.c_str(),
+                 std::string(old_name).c_str(), std::string(name).c_str());
+    table.header[static_cast<std::size_t>(c)] = std::string(name);
+  }
+}
 
 int Table::column(std::string_view name) const {
   for (std::size_t i = 0; i < header.size(); ++i) {
@@ -100,6 +121,7 @@ Table read_csv_table(const std::string& path) {
         }
       }
       table.header = std::move(fields);
+      rename_deprecated_columns(table);
       header_read = true;
       continue;
     }

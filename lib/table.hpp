@@ -29,7 +29,14 @@ struct Table {
 // fields. An InputFileError names the file and line ("cannot open file", "empty file (no header
 // line)", "header column 3 is empty", "duplicate column 'phi' in the header", "expected 7
 // comma-separated fields (as in the header), found 6"). A table without rows is returned.
+// Columns under a deprecated name (lib/names.hpp: gdot, P) are renamed to the current one
+// (shear_rate, imposed_pressure), with a warning on stderr; see rename_deprecated_columns.
 Table read_csv_table(const std::string& path);
+
+// Renames the table's columns that carry a deprecated name to the current one, each with a
+// one-line warning on stderr. A deprecated column beside its current one is left as it is
+// (and warned about): the current one is read.
+void rename_deprecated_columns(Table& table);
 
 // A cell's text as a CSV table holds it: commas, quotes and line breaks become ';'.
 std::string csv_cell(std::string text);

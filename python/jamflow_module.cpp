@@ -1051,7 +1051,9 @@ class _ProgressDisplay:
       .def_property(
           "shear_rate", [](const PySimulation& s) { return s.sim().shear_rate(); },
           [](PySimulation& s, double rate) { s.sim().set_shear_rate(rate); },
-          "the shear rate gdot (settable: the next advance shears at the new rate)");
+          "the shear rate, 1/tau_0; the scene's [shear] rate (settable: the next advance shears at "
+          "the "
+          "new rate)");
 
   m.def("sweep", &sweep, py::arg("source") = py::none(), py::arg("out") = py::none(), py::kw_only(),
         py::arg("grid") = py::none(), py::arg("replicas") = py::none(), py::arg("jobs") = 0,
@@ -1070,8 +1072,9 @@ class _ProgressDisplay:
         "a fresh folder made by tempfile.mkdtemp (jamflow-sweep-* in $TMPDIR or /tmp), kept, "
         "whose points the folder column names. jobs: points at once (0: the cores). progress: "
         "the engine's progress line on stderr. path: source's former name, still accepted.\n\n"
-        "The columns are those of `jamflow sweep --collect` (point, the varied keys, N, gdot, "
-        "phi, pressure, sigma_xy, eta, mu with _err, verdicts, cost, folder, here absolute) and "
+        "The columns are those of `jamflow sweep --collect` (point, the varied keys but shear.rate "
+        "and ensemble.pressure, N, imposed_pressure at constant pressure, shear_rate, phi, "
+        "pressure, sigma_xy, eta, mu with _err, verdicts, cost, folder, here absolute) and "
         "status: 'complete', or why a point has no results ('failed at t = ...: why', 'not "
         "run', ...). Numeric columns are float arrays, NaN where a point has no value; text "
         "columns are str arrays, so table['status'] == 'complete' selects the finished points. "

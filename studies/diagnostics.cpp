@@ -684,7 +684,7 @@ void write_diagnosed(H5Writer& out, const std::string& group, const DiagnosedRun
   out.attr(group, "scene", r.scene_text);
   out.attr(group, "dt", r.dt);
   out.attr(group, "N", r.n);
-  out.attr(group, "gdot", r.gdot);
+  out.attr(group, "shear_rate", r.gdot);
   out.attr(group, "cpu_seconds", r.cpu_seconds);
   out.attr(group, "cpu_from_wall", static_cast<std::int64_t>(r.result.cpu_from_wall));
   out.attr(group, "wall_seconds", r.result.wall_seconds);

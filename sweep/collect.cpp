@@ -10,6 +10,7 @@
 #include "driver/checkpoint.hpp"
 #include "driver/run.hpp"
 #include "lib/error.hpp"
+#include "lib/names.hpp"
 #include "lib/statistics.hpp"
 #include "lib/table.hpp"
 #include "sweep/execute.hpp"
@@ -104,15 +105,23 @@ PointTable build_table(const Plan& plan, bool all_points) {
     rows.push_back(std::move(row));
   }
 
+  // The varied keys, less those whose quantity has its own column under its one name
+  // (lib/names.hpp): shear.rate is shear_rate, ensemble.pressure imposed_pressure.
+  const bool pressure_column = all_cp && !rows.empty();
+  auto own_column = [&](const std::string& key) {
+    return key == "shear.rate" || (key == "ensemble.pressure" && pressure_column);
+  };
   std::vector<std::string> header = {"point"};
-  for (const auto& a : plan.axes)
-    header.push_back(a);
+  for (const auto& a : plan.axes) {
+    if (!own_column(a))
+      header.push_back(a);
+  }
   for (const char* c : {"ensemble", "N"})
     header.push_back(c);
-  if (all_cp && !rows.empty())
-    header.push_back("P");
+  if (pressure_column)
+    header.emplace_back(names::kImposedPressure);
   const std::vector<std::string> observables = {"phi", "pressure", "sigma_xy", "eta", "mu"};
-  header.push_back("gdot");
+  header.emplace_back(names::kShearRate);
   for (const auto& o : observables) {
     header.push_back(o);
     header.push_back(o + "_err");
@@ -143,8 +152,10 @@ PointTable build_table(const Plan& plan, bool all_points) {
     };
     const bool several = get("replicas") > 1.5;
     std::vector<std::string> cells = {row.point->name};
-    for (const auto& [k, val] : row.point->values)
-      cells.push_back(csv_cell(val));
+    for (const auto& [k, val] : row.point->values) {
+      if (!own_column(k))
+        cells.push_back(csv_cell(val));
+    }
     cells.push_back(row.spec.ensemble->name());
     cells.push_back(std::to_string(row.point->n));
     if (all_cp)

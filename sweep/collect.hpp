@@ -14,8 +14,9 @@ struct Collected {
   std::vector<std::string> left_out;  // points not finished in every replica, with why
 };
 
-// Columns: point, one per varied key, ensemble, N, P (the imposed pressure; only when every
-// row is at constant pressure, so that analyze reads the table as granular data), gdot, phi,
+// Columns: point, one per varied key (but shear.rate and ensemble.pressure, which are the
+// columns shear_rate and imposed_pressure), ensemble, N, imposed_pressure (only when every row
+// is at constant pressure, so that analyze reads the table as granular data), shear_rate, phi,
 // pressure, sigma_xy, eta, mu (each with _err), J, energy_balance, replicas, steady, stable,
 // decorrelated (1 pass, 0 fail, empty not checked), the cost summed over the replicas:
 // wall_seconds, cpu_seconds (the runs' CPU time; cpu_from_wall = 1 when a run file written before
@@ -33,7 +34,8 @@ Collected collect(const Plan& plan, const std::string& path);
 // columns of collect() and last `status`, the point's RunStatus text: "complete", or that of
 // its first replica that is not ("failed at t = ...: why", "not run", "interrupted at t = ...",
 // "budget: stopped at t = ..."). A point that is not complete has the cells its scene gives
-// (point, the varied keys, ensemble, N, P, gdot, folder) and empty ones for every result.
+// (point, the varied keys, ensemble, N, imposed_pressure, shear_rate, folder) and empty ones for
+// every result.
 struct PointTable {
   std::vector<std::string> header;
   std::vector<std::vector<std::string>> rows;  // cells as text, "" where there is no value

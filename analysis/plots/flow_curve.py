@@ -11,7 +11,7 @@ curves = data["curves"]
 cols = colours(plt, len(curves))
 fig, ax = plt.subplots(figsize=(7, 5.5))
 for c, col in zip(curves, cols):
-    g, s, e = (np.asarray(c[k]) for k in ("gdot", "sigma_xy", "sigma_xy_err"))
+    g, s, e = (np.asarray(c[k]) for k in ("shear_rate", "sigma_xy", "sigma_xy_err"))
     failed = np.asarray(c["failed"]) > 0.5
     ax.errorbar(g[~failed], s[~failed], yerr=e[~failed], fmt="o", ms=4, color=col,
                 label=c["curve"])
@@ -20,7 +20,7 @@ for c, col in zip(curves, cols):
                     color=col, label=c["curve"] + " (verdicts failed)")
     for key, style in (("power_law", "--"), ("herschel_bulkley", "-")):
         if key in c:
-            ax.plot(c[key]["gdot"], c[key]["sigma_xy"], style, color=col, lw=1)
+            ax.plot(c[key]["shear_rate"], c[key]["sigma_xy"], style, color=col, lw=1)
 ax.set(xscale="log", yscale="log", xlabel=r"$\dot\gamma$", ylabel=r"$\sigma_{xy}$",
        title="Flow curves: power law (dashed), Herschel-Bulkley (solid)")
 ax.legend(fontsize=7)

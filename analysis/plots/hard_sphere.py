@@ -15,7 +15,7 @@ NAMES = ["phi_J", "b_phi", "C_phi", "mu_J", "b_mu", "C_mu"]
 
 
 def arrays(s):
-    return {k: np.asarray(s[k], dtype=float) for k in ("P", "J", "phi", "phi_err", "mu", "mu_err")}
+    return {k: np.asarray(s[k], dtype=float) for k in ("imposed_pressure", "J", "phi", "phi_err", "mu", "mu_err")}
 
 
 def fig4():
@@ -28,12 +28,12 @@ def fig4():
         # No fit: phi(J) and mu(J) themselves, filled where a point is in the envelope.
         a = arrays(s)
         env = np.array([st in IN_ENVELOPE for st in s["status"]])
-        pressures = sorted(set(a["P"]))
+        pressures = sorted(set(a["imposed_pressure"]))
         cols = colours(plt, len(pressures))
         for col, (name, label) in enumerate([("phi", r"$\varphi$"), ("mu", r"$\mu$")]):
             ax = axes[row][col]
             for p, c in zip(pressures, cols):
-                sel = a["P"] == p
+                sel = a["imposed_pressure"] == p
                 labelled = False
                 for mask, face in ((sel & env, c), (sel & ~env, "none")):
                     if mask.any():
@@ -51,7 +51,7 @@ def fig4():
         a = arrays(s)
         par = {k: v[0] for k, v in s["params"].items()}
         env = np.array([st in IN_ENVELOPE for st in s["status"]])
-        pressures = sorted(set(a["P"]))
+        pressures = sorted(set(a["imposed_pressure"]))
         cols = colours(plt, len(pressures))
         jj = np.logspace(np.log10(a["J"].min()), np.log10(a["J"].max()), 100)
         for col, (yv, err, line, label) in enumerate([
@@ -62,7 +62,7 @@ def fig4():
         ]):
             ax = axes[row][col]
             for p, c in zip(pressures, cols):
-                sel = (a["P"] == p) & (yv > 0)
+                sel = (a["imposed_pressure"] == p) & (yv > 0)
                 labelled = False
                 for mask, face in ((sel & env, c), (sel & ~env, "none")):
                     if mask.any():

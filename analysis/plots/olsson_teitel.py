@@ -37,7 +37,7 @@ plt.close(fig)
 
 flow = data.get("flow")
 if flow is not None and "law_curves" in flow:
-    phi, g = np.asarray(flow["phi"]), np.asarray(flow["gdot"])
+    phi, g = np.asarray(flow["phi"]), np.asarray(flow["shear_rate"])
     sig, sige = np.asarray(flow["sigma_xy"]), np.asarray(flow["sigma_xy_err"])
     phis = np.unique(phi)
     cols = colours(plt, len(phis))
@@ -48,7 +48,7 @@ if flow is not None and "law_curves" in flow:
                     label=rf"$\varphi$ = {ph:.4g}")
     for curve in flow["law_curves"]:
         k = int(np.argmin(np.abs(phis - curve["phi"])))
-        ax.plot(curve["gdot"], curve["sigma"], "-", color=cols[k], lw=1)
+        ax.plot(curve["shear_rate"], curve["sigma"], "-", color=cols[k], lw=1)
     ax.set(xscale="log", yscale="log", xlabel=r"$\dot\gamma$", ylabel=r"$\sigma_{xy}$",
            title=f"Flow curves and the soft granular rheology fitted to them "
                  f"(quality {flow['soft_quality']:.3g})")

@@ -19,7 +19,7 @@ data, prefix = read_args()
 def joint_figures(s):
     law = s["joint"]["law"]
     phi_j0, c_phi, x, C_phi, b_phi, mu_j0, c_mu, y, C_mu, b_mu = law
-    P, J = np.asarray(s["P"]), np.asarray(s["J"])
+    P, J = np.asarray(s["imposed_pressure"]), np.asarray(s["J"])
     phi, mu = np.asarray(s["phi"]), np.asarray(s["mu"])
     phi_err, mu_err = np.asarray(s["phi_err"]), np.asarray(s["mu_err"])
     pressures = np.unique(P)
@@ -84,7 +84,7 @@ def joint_figures(s):
     ymin, ymax = sy[ok].min() if ok.any() else 1e-6, sy[ok].max() if ok.any() else 1.0
     phis = np.asarray(yd["phi"])
     if len(phis):
-        g = np.asarray(yd["gdot"])
+        g = np.asarray(yd["shear_rate"])
         sig, sige = np.asarray(yd["sigma_xy"]), np.asarray(yd["sigma_xy_err"])
         rates = np.unique(g)
         rc = colours(plt, len(rates))
@@ -109,7 +109,7 @@ for s in data["sizes"]:
         joint_figures(s)
     if "shape" not in s:
         continue  # the per-pressure collapse was not done
-    P = np.asarray(s["P"])
+    P = np.asarray(s["imposed_pressure"])
     J = np.asarray(s["J"])
     phi = np.asarray(s["phi"])
     mu = np.asarray(s["mu"])

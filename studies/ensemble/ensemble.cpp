@@ -415,7 +415,7 @@ int run_ensemble_study(const StudyOptions& options) {
     w.attr("/", "preset", p.name);
     w.attr("/", "git_commit", git_commit());
     w.attr("/", "N", p.n);
-    w.attr("/", "pressure", p.pressure);
+    w.attr("/", "imposed_pressure", p.pressure);
     w.attr("/", "xi_V", p.xi_v);
     w.attr("/", "shear_rate", p.shear_rate);
     w.attr("/", "J", j);

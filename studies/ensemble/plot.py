@@ -17,7 +17,7 @@ def main(h5_path, png_path):
     with h5py.File(h5_path, "r") as f:
         gdot = float(f.attrs["shear_rate"])
         title = "N = %d, gdot = %.3g, P = %.3g (preset %s)" % (
-            int(f.attrs["N"]), gdot, float(f.attrs["pressure"]), f.attrs["preset"])
+            int(f.attrs["N"]), gdot, float(f.attrs["imposed_pressure"]), f.attrs["preset"])
         fig, (ax_s, ax_p) = plt.subplots(2, 1, figsize=(7.5, 6.5), sharex=True)
         styles = {
             "constant_pressure": dict(color="tab:green", marker="o", label="constant pressure"),

@@ -25,7 +25,7 @@ def main(table_path, png_path):
     if not rows:
         raise SystemExit("no rows in " + table_path)
     sizes = sorted({int(r["N"]) for r in rows})
-    pressures = sorted({number(r["P"]) for r in rows}, reverse=True)
+    pressures = sorted({number(r["imposed_pressure"]) for r in rows}, reverse=True)
     colors = plt.cm.viridis(np.linspace(0.0, 0.9, max(len(pressures), 2)))
     markers = "osD^v<>ph*"
     fig, axes = plt.subplots(2, 3, figsize=(13, 7.5))
@@ -33,11 +33,11 @@ def main(table_path, png_path):
     ax_off.axis("off")
     for ni, n in enumerate(sizes):
         for pi, p in enumerate(pressures):
-            pts = [r for r in rows if int(r["N"]) == n and number(r["P"]) == p]
+            pts = [r for r in rows if int(r["N"]) == n and number(r["imposed_pressure"]) == p]
             if not pts:
                 continue
-            pts.sort(key=lambda r: number(r["gdot"]))
-            g = np.array([number(r["gdot"]) for r in pts])
+            pts.sort(key=lambda r: number(r["shear_rate"]))
+            g = np.array([number(r["shear_rate"]) for r in pts])
             j = np.array([number(r["J"]) for r in pts])
             ok = np.array([r["steady"] != "0" and r["stable"] != "0" for r in pts])
             label = "P = %.0e" % p + ("" if len(sizes) == 1 else ", N = %d" % n)

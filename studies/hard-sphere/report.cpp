@@ -49,7 +49,7 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
   // ...and as the table records it (what the points really ran), in the same words.
   const auto table_label = [&](std::size_t r) {
     if (table.column("integrator") < 0)
-      return label(std::int64_t(table.number(r, "N")), table.number(r, "P"));
+      return label(std::int64_t(table.number(r, "N")), table.number(r, "imposed_pressure"));
     const std::string t = table.text(r, "integrator");
     for (const char* kind : {"cvode", "rkc", "respa", "euler"}) {
       if (t.find(std::string("kind") + kind) == std::string::npos)
@@ -224,9 +224,10 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
       }
       return s;
     }());
-    for (const char* col : {"N", "P", "gdot", "phi", "phi_err", "pressure", "pressure_err",
-                            "sigma_xy", "sigma_xy_err", "eta", "eta_err", "mu", "mu_err", "J",
-                            "energy_balance", "replicas", "steady", "stable", "decorrelated"}) {
+    for (const char* col :
+         {"N", "imposed_pressure", "shear_rate", "phi", "phi_err", "pressure", "pressure_err",
+          "sigma_xy", "sigma_xy_err", "eta", "eta_err", "mu", "mu_err", "J", "energy_balance",
+          "replicas", "steady", "stable", "decorrelated"}) {
       std::vector<double> v;
       for (std::size_t r = 0; r < table.rows.size(); ++r)
         v.push_back(table.number(r, col));
@@ -271,7 +272,7 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
     double jmin = 1e300, jmax = 0.0;
     for (std::size_t r = 0; r < table.rows.size(); ++r) {
       ns.insert(std::int64_t(table.number(r, "N")));
-      ps.insert(table.number(r, "P"));
+      ps.insert(table.number(r, "imposed_pressure"));
       reps.insert(table.number(r, "replicas"));
       jmin = std::min(jmin, table.number(r, "J"));
       jmax = std::max(jmax, table.number(r, "J"));
@@ -329,7 +330,7 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
       if (table.number(r, "steady") == 0.0 || table.number(r, "stable") == 0.0)
         continue;
       grid_rows[std::int64_t(table.number(r, "N"))][key(table.number(r, "J"))]
-               [key(table.number(r, "P"))] = r;
+               [key(table.number(r, "imposed_pressure"))] = r;
     }
     for (const auto& [n, by_j] : grid_rows) {
       std::set<double, std::greater<>> pressures;

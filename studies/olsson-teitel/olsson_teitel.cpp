@@ -187,8 +187,8 @@ std::string olsson_teitel::report_markdown(const VolumePreset& preset, const Swe
     double gmin = 1e300, gmax = 0.0;
     std::set<double> below, above;
     for (std::size_t r = 0; r < table.rows.size(); ++r) {
-      gmin = std::min(gmin, table.number(r, "gdot"));
-      gmax = std::max(gmax, table.number(r, "gdot"));
+      gmin = std::min(gmin, table.number(r, "shear_rate"));
+      gmax = std::max(gmax, table.number(r, "shear_rate"));
     }
     if (gmax > 0.0)
       md << "- Shear rates: " << num(gmin, 3) << " to " << num(gmax, 3) << " ("

@@ -205,10 +205,11 @@ std::string soft_rheology::report_markdown(const Preset& preset, const SweepStud
       return out;
     };
     md << "Harmonic spheres (alpha_r = 2). The constant-pressure table: N = " << sizes(cp_table)
-       << "; P = " << values(cp_table, "P") << "; J = " << values(cp_table, "J")
+       << "; P = " << values(cp_table, "imposed_pressure") << "; J = " << values(cp_table, "J")
        << "; replicas per point: " << values(cp_table, "replicas")
        << ". The constant-volume table: N = " << sizes(cv_table)
-       << "; phi = " << values(cv_table, "system.phi") << "; gdot = " << values(cv_table, "gdot")
+       << "; phi = " << values(cv_table, "system.phi")
+       << "; gdot = " << values(cv_table, "shear_rate")
        << "; replicas per point: " << values(cv_table, "replicas")
        << ". Integrators per point: the tables' integrator column. The preset `"
        << preset.pressure.name << "` now: constant pressure, " << preset.pressure.why

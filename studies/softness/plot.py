@@ -50,7 +50,7 @@ def main():
                     runs = []
                     for rk in sorted(pg["runs"].keys()):
                         ra = pg["runs"][rk].attrs
-                        runs.append({"P": float(ra["pressure"]), "verdict": text(ra["verdict"]),
+                        runs.append({"P": float(ra["imposed_pressure"]), "verdict": text(ra["verdict"]),
                                      "mu": float(ra.get("summary_mu", np.nan)),
                                      "mu_err": float(ra.get("summary_mu_err", np.nan)),
                                      "phi": float(ra.get("summary_phi", np.nan)),

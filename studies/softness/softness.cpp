@@ -908,7 +908,7 @@ int run_softness_preset(const SoftnessPreset& preset, const StudyOptions& option
       const std::string rg = g;
       w.group(rg);
       w.attr(rg, "J", j);
-      w.attr(rg, "pressure", preset.p_reference);
+      w.attr(rg, "imposed_pressure", preset.p_reference);
       w.attr(rg, "alpha", 2.0);
       w.attr(rg, "usable", static_cast<std::int64_t>(ref.value.usable));
       w.attr(rg, "why", ref.why);
@@ -942,8 +942,8 @@ int run_softness_preset(const SoftnessPreset& preset, const StudyOptions& option
         const std::string sg = grp + (e == 0 ? "/scan_hi" : "/scan_lo");
         w.group(sg);
         w.attr(sg, "delta", s.delta);
-        w.attr(sg, "pressure", s.point.pressure);
-        w.attr(sg, "gdot", s.point.gdot);
+        w.attr(sg, "imposed_pressure", s.point.pressure);
+        w.attr(sg, "shear_rate", s.point.gdot);
         w.attr(sg, "euler_dt_max", s.euler_dt_max);
         write_diagnosed(w, sg + "/prep", s.prep, false);
         for (std::size_t k = 0; k < s.runs.size(); ++k) {
@@ -994,7 +994,7 @@ int run_softness_preset(const SoftnessPreset& preset, const StudyOptions& option
           std::snprintf(rg, sizeof rg, "/runs/r%03zu", k);
           write_diagnosed(w, pg + rg, runs[k].run, false);
           w.attr(pg + rg, "delta", runs[k].delta);
-          w.attr(pg + rg, "pressure", runs[k].pressure);
+          w.attr(pg + rg, "imposed_pressure", runs[k].pressure);
           w.attr(pg + rg, "duration", runs[k].duration);
           w.attr(pg + rg, "agrees", static_cast<std::int64_t>(runs[k].agrees));
           w.attr(pg + rg, "dmu", runs[k].dmu);

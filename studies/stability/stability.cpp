@@ -493,7 +493,7 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
       char g[64];
       std::snprintf(g, sizeof g, "/respa_size_thresholds/t%02zu", t);
       w.group(g);
-      w.attr(g, "pressure", thresholds[t].pressure);
+      w.attr(g, "imposed_pressure", thresholds[t].pressure);
       w.attr(g, "dt", thresholds[t].dt);
       w.attr(g, "largest_failing_N", thresholds[t].largest_failing);
       w.attr(g, "smallest_holding_N", thresholds[t].smallest_holding);
@@ -518,9 +518,9 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
       w.attr(grp, "state_point", cr.c.point.describe());
       w.attr(grp, "N", cr.c.point.n);
       w.attr(grp, "alpha", cr.c.point.alpha);
-      w.attr(grp, "pressure", cr.c.point.pressure);
+      w.attr(grp, "imposed_pressure", cr.c.point.pressure);
       w.attr(grp, "xi_V", cr.c.point.xi_v);
-      w.attr(grp, "gdot", cr.c.point.gdot);
+      w.attr(grp, "shear_rate", cr.c.point.gdot);
       w.attr(grp, "largest_stable_dt", cr.largest_stable_dt);
       w.attr(grp, "largest_dt_without_oscillation", cr.largest_held_dt);
       w.attr(grp, "runs_without_oscillation_left_out", std::int64_t(cr.held_left_out));

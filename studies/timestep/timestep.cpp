@@ -496,9 +496,9 @@ int run_timestep_preset(const TimestepPreset& preset, const StudyOptions& option
       w.attr(grp, "name", pr.point.name);
       w.attr(grp, "state_point", pr.point.describe());
       w.attr(grp, "constant_pressure", static_cast<std::int64_t>(pr.point.constant_pressure));
-      w.attr(grp, "pressure", pr.point.pressure);
+      w.attr(grp, "imposed_pressure", pr.point.pressure);
       w.attr(grp, "phi", pr.point.phi);
-      w.attr(grp, "gdot", pr.point.gdot);
+      w.attr(grp, "shear_rate", pr.point.gdot);
       w.attr(grp, "N", pr.point.n);
       w.attr(grp, "t_eq", pr.t_eq);
       w.attr(grp, "t_av", pr.t_av);

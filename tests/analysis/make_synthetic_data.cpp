@@ -22,7 +22,7 @@ std::string num(double x) {
 void write_granular(const std::string& path, const std::vector<GranularPoint>& pts) {
   std::ofstream out(path);
   out << "# synthetic: Table 2 + soft granular rheology (x = 0.75, y = 0.56)\n";
-  out << "N,P,gdot,phi,phi_err,mu,mu_err\n";
+  out << "N,imposed_pressure,shear_rate,phi,phi_err,mu,mu_err\n";
   for (const auto& p : pts) {
     out << p.n << "," << num(p.pressure) << "," << num(p.shear_rate) << "," << num(p.phi) << ","
         << num(p.phi_err) << "," << num(p.mu) << "," << num(p.mu_err) << "\n";
@@ -31,7 +31,7 @@ void write_granular(const std::string& path, const std::vector<GranularPoint>& p
 
 void write_shear(const std::string& path, const std::vector<ShearPoint>& pts) {
   std::ofstream out(path);
-  out << "N,phi,gdot,sigma_xy,sigma_xy_err\n";
+  out << "N,phi,shear_rate,sigma_xy,sigma_xy_err\n";
   for (const auto& p : pts) {
     out << p.n << "," << num(p.phi) << "," << num(p.shear_rate) << "," << num(p.sigma) << ","
         << num(p.sigma_err) << "\n";

@@ -26,7 +26,7 @@ using testing::run_analyze;
 using testing::ScratchDir;
 
 std::string granular_csv(const std::vector<GranularPoint>& pts) {
-  std::string s = "N,P,gdot,phi,phi_err,mu,mu_err\n";
+  std::string s = "N,imposed_pressure,shear_rate,phi,phi_err,mu,mu_err\n";
   for (const auto& p : pts) {
     s += std::to_string(p.n) + "," + num(p.pressure) + "," + num(p.shear_rate) + "," + num(p.phi) +
          "," + num(p.phi_err) + "," + num(p.mu) + "," + num(p.mu_err) + "\n";
@@ -35,7 +35,7 @@ std::string granular_csv(const std::vector<GranularPoint>& pts) {
 }
 
 std::string shear_csv(const std::vector<ShearPoint>& pts) {
-  std::string s = "N,phi,gdot,sigma_xy,sigma_xy_err\n";
+  std::string s = "N,phi,shear_rate,sigma_xy,sigma_xy_err\n";
   for (const auto& p : pts) {
     s += std::to_string(p.n) + "," + num(p.phi) + "," + num(p.shear_rate) + "," + num(p.sigma) +
          "," + num(p.sigma_err) + "\n";
@@ -45,7 +45,7 @@ std::string shear_csv(const std::vector<ShearPoint>& pts) {
 
 // With the measured pressure, as a collected constant-volume sweep table has it.
 std::string shear_csv_with_pressure(const std::vector<ShearPoint>& pts) {
-  std::string s = "N,phi,gdot,sigma_xy,sigma_xy_err,pressure,pressure_err\n";
+  std::string s = "N,phi,shear_rate,sigma_xy,sigma_xy_err,pressure,pressure_err\n";
   for (const auto& p : pts) {
     s += std::to_string(p.n) + "," + num(p.phi) + "," + num(p.shear_rate) + "," + num(p.sigma) +
          "," + num(p.sigma_err) + "," + num(p.pressure) + "," + num(p.pressure_err) + "\n";
@@ -326,6 +326,30 @@ TEST(Cli, OlssonTeitelFitsTheSoftRheologyWhenPressuresAreMeasured) {
   j = Json::parse(read_text(out));
   EXPECT_FALSE(j.contains("soft"));
   EXPECT_NE(j.at("soft_skipped").as_string().find("pressure"), std::string::npos);
+}
+
+// The slow/fast split is set by --split-shear-rate; the option's former name --split-gdot still
+// works, with a deprecation warning, and the two together are refused.
+TEST(Cli, SplitShearRateAndItsDeprecatedName) {
+  ScratchDir dir;
+  testing::TwoBranchSpec spec;
+  spec.points_per_decade = 1;
+  auto data = dir.write("cv.csv", shear_csv(testing::make_two_branch(spec)));
+  const std::string out = dir.file("ot.json");
+  CliRun r = run_analyze({"olsson-teitel", data, "-o", out, "--bootstrap", "10", "--no-plots",
+                          "--split-shear-rate", "1e-4"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(r.err.find("deprecated"), std::string::npos) << r.err;
+  EXPECT_EQ(Json::parse(read_text(out)).at("subset_splits").at("shear_rate").as_number(), 1e-4);
+  r = run_analyze({"olsson-teitel", data, "-o", out, "--bootstrap", "10", "--no-plots",
+                   "--split-gdot", "2e-4"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("--split-gdot is deprecated; use --split-shear-rate"), std::string::npos)
+      << r.err;
+  EXPECT_EQ(Json::parse(read_text(out)).at("subset_splits").at("shear_rate").as_number(), 2e-4);
+  r = run_analyze({"olsson-teitel", data, "-o", out, "--no-plots", "--split-gdot", "2e-4",
+                   "--split-shear-rate", "1e-4"});
+  EXPECT_EQ(r.code, 2) << r.err;
 }
 
 TEST(Cli, RunFileWithoutSummaryIsAnInputError) {

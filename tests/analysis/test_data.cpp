@@ -44,7 +44,7 @@ TEST(CsvReader, ReadsGranularTableInAnyColumnOrderWithComments) {
   auto path = dir.write("g.csv",
                         "# comment line\n"
                         "\n"
-                        "mu,mu_err,N,P,gdot,phi,phi_err,extra\n"
+                        "mu,mu_err,N,imposed_pressure,shear_rate,phi,phi_err,extra\n"
                         "0.2,0.001,1000,1e-4,1e-6,0.63,1e-4,ignored\n"
                         "0.25,0.002,1000,1e-4,1e-5,0.62,2e-4,ignored\r\n");
   auto pts = read_granular({path});
@@ -84,7 +84,8 @@ TEST(Admission, LeavesOutUnsteadyUnstableAndSingleReplicaShortBlocks) {
 TEST(CsvReader, CollectedTableRowsWithFailedVerdictsAreLeftOut) {
   ScratchDir dir;
   auto path = dir.write("sweep.csv",
-                        "point,N,P,gdot,phi,phi_err,mu,mu_err,replicas,steady,stable,decorrelated\n"
+                        "point,N,imposed_pressure,shear_rate,phi,phi_err,mu,mu_err,replicas,steady,"
+                        "stable,decorrelated\n"
                         "a,1000,1e-4,1e-6,0.63,1e-4,0.2,0.001,3,1,1,1\n"
                         "b,1000,1e-4,1e-5,0.62,2e-4,0.25,0.002,3,0,1,1\n"
                         "c,1000,1e-4,1e-7,0.64,2e-4,0.15,0.002,3,1,0,1\n"
@@ -107,7 +108,8 @@ TEST(CsvReader, CollectedTableRowsWithFailedVerdictsAreLeftOut) {
 TEST(CsvReader, ReplicaScatterOnlyFromThreeReplicas) {
   ScratchDir dir;
   const std::string head =
-      "point,N,P,gdot,phi,phi_err,mu,mu_err,replicas,steady,stable,decorrelated,folder,"
+      "point,N,imposed_pressure,shear_rate,phi,phi_err,mu,mu_err,replicas,steady,stable,"
+      "decorrelated,folder,"
       "phi_block_err,phi_replica_err,mu_block_err,mu_replica_err\n";
   auto path = dir.write(
       "parts.csv", head +
@@ -168,8 +170,14 @@ TEST(CsvReader, OlderCollectedTableKeepsItsErrorsAndSaysWhatTheyAre) {
   auto path = dir.write("old.csv",
                         "point,N,P,gdot,phi,phi_err,mu,mu_err,replicas,steady,stable,decorrelated\n"
                         "a,1000,1e-4,1e-6,0.63,0.01,0.2,0.1,2,1,1,0\n");
+  // Its columns P and gdot are the deprecated names of imposed_pressure and shear_rate.
+  ::testing::internal::CaptureStderr();
   const auto pts = read_granular({path});
+  const std::string warned = ::testing::internal::GetCapturedStderr();
+  EXPECT_NE(warned.find("column 'gdot' is deprecated; read as 'shear_rate'"), std::string::npos);
   ASSERT_EQ(pts.size(), 1u);  // not decorrelated, but its errors include the scatter
+  EXPECT_DOUBLE_EQ(pts[0].pressure, 1e-4);
+  EXPECT_DOUBLE_EQ(pts[0].shear_rate, 1e-6);
   EXPECT_DOUBLE_EQ(pts[0].phi_err, 0.01);
   EXPECT_EQ(pts[0].error_basis, ErrorBasis::kCollectedMax);
   EXPECT_NE(describe(point_errors_of(pts)).find("older table"), std::string::npos);
@@ -178,7 +186,7 @@ TEST(CsvReader, OlderCollectedTableKeepsItsErrorsAndSaysWhatTheyAre) {
 TEST(CsvReader, MalformedValueNamesFileLineAndColumn) {
   ScratchDir dir;
   auto path = dir.write("bad.csv",
-                        "N,P,gdot,phi,phi_err,mu,mu_err\n"
+                        "N,imposed_pressure,shear_rate,phi,phi_err,mu,mu_err\n"
                         "1000,1e-4,1e-6,0.63,1e-4,0.2,0.001\n"
                         "1000,1e-4,1e-5,abc,1e-4,0.2,0.001\n");
   expect_input_error([&] { read_granular({path}); }, {"bad.csv:3", "column 'phi'", "abc"});
@@ -186,7 +194,7 @@ TEST(CsvReader, MalformedValueNamesFileLineAndColumn) {
 
 TEST(CsvReader, NonFiniteAndOutOfRangeValuesAreRejected) {
   ScratchDir dir;
-  const std::string head = "N,P,gdot,phi,phi_err,mu,mu_err\n";
+  const std::string head = "N,imposed_pressure,shear_rate,phi,phi_err,mu,mu_err\n";
   auto nan = dir.write("nan.csv", head + "1000,1e-4,1e-6,0.63,1e-4,nan,0.001\n");
   expect_input_error([&] { read_granular({nan}); }, {"nan.csv:2", "column 'mu'", "non-finite"});
   auto inf = dir.write("inf.csv", head + "1000,1e-4,1e-6,0.63,inf,0.2,0.001\n");
@@ -201,34 +209,39 @@ TEST(CsvReader, NonFiniteAndOutOfRangeValuesAreRejected) {
 
 TEST(CsvReader, StructuralErrors) {
   ScratchDir dir;
-  auto fields = dir.write("f.csv", "N,P,gdot,phi,phi_err,mu,mu_err\n1000,1e-4,1e-6,0.63\n");
+  auto fields = dir.write(
+      "f.csv", "N,imposed_pressure,shear_rate,phi,phi_err,mu,mu_err\n1000,1e-4,1e-6,0.63\n");
   expect_input_error([&] { read_granular({fields}); }, {"f.csv:2", "expected 7", "found 4"});
-  auto cols = dir.write("c.csv", "N,P,gdot,phi\n1000,1e-4,1e-6,0.63\n");
+  auto cols = dir.write("c.csv", "N,imposed_pressure,shear_rate,phi\n1000,1e-4,1e-6,0.63\n");
   expect_input_error([&] { read_granular({cols}); }, {"c.csv", "missing phi_err,mu,mu_err"});
   auto empty = dir.write("e.csv", "# nothing\n");
   expect_input_error([&] { read_granular({empty}); }, {"e.csv", "empty"});
   expect_input_error([&] { read_granular({dir.file("missing.csv")}); },
                      {"missing.csv", "cannot open"});
-  auto cv = dir.write("cv.csv", "N,phi,gdot,sigma_xy,sigma_xy_err\n1000,0.63,1e-6,1e-5,1e-7\n");
+  auto cv =
+      dir.write("cv.csv", "N,phi,shear_rate,sigma_xy,sigma_xy_err\n1000,0.63,1e-6,1e-5,1e-7\n");
   expect_input_error([&] { read_granular({cv}); }, {"cv.csv", "constant-volume"});
 }
 
 TEST(CsvReader, ShearTablesAndGranularTablesForTheCollapse) {
   ScratchDir dir;
   auto cv = dir.write("cv.csv",
-                      "N,phi,gdot,sigma_xy,sigma_xy_err\n"
+                      "N,phi,shear_rate,sigma_xy,sigma_xy_err\n"
                       "1000,0.63,1e-6,1e-5,1e-7\n"
                       "1000,0.64,1e-6,2e-5,1e-7\n");
-  auto g =
-      dir.write("g.csv", "N,P,gdot,phi,phi_err,mu,mu_err\n1000,1e-4,1e-6,0.63,1e-4,0.2,0.001\n");
+  auto g = dir.write(
+      "g.csv",
+      "N,imposed_pressure,shear_rate,phi,phi_err,mu,mu_err\n1000,1e-4,1e-6,0.63,1e-4,0.2,0.001\n");
   auto pts = read_shear({cv, g});
   ASSERT_EQ(pts.size(), 3u);
   std::map<std::string, double> sigma_by_set;
   for (const auto& p : pts)
     sigma_by_set[p.set] = p.sigma;
-  EXPECT_DOUBLE_EQ(sigma_by_set.at("N=1000,P=" + format_key(1e-4)), 0.2 * 1e-4);  // mu P
+  EXPECT_DOUBLE_EQ(sigma_by_set.at("N=1000,imposed_pressure=" + format_key(1e-4)),
+                   0.2 * 1e-4);  // mu P
   EXPECT_EQ(sigma_by_set.count("N=1000,phi=0.63"), 1u);
-  auto neg = dir.write("neg.csv", "N,phi,gdot,sigma_xy,sigma_xy_err\n1000,0.63,1e-6,-1e-5,1e-7\n");
+  auto neg =
+      dir.write("neg.csv", "N,phi,shear_rate,sigma_xy,sigma_xy_err\n1000,0.63,1e-6,-1e-5,1e-7\n");
   expect_input_error([&] { read_shear({neg}); }, {"neg.csv:2", "sigma_xy"});
 }
 
@@ -247,7 +260,7 @@ TEST(Merging, RepeatedStatePointsAreInverseVarianceAveraged) {
 // are refused, naming both, where they were merged as repeats and shrank the error bars.
 TEST(Merging, DuplicateFilesAndIdenticalRowsAreRefused) {
   ScratchDir dir;
-  const std::string header = "N,P,gdot,phi,phi_err,mu,mu_err\n";
+  const std::string header = "N,imposed_pressure,shear_rate,phi,phi_err,mu,mu_err\n";
   const std::string row1 = "100,1e-4,1e-6,0.63,1e-4,0.2,0.01\n";
   const std::string row2 = "100,1e-4,1e-6,0.632,1e-4,0.21,0.01\n";
   const auto a = dir.write("a.csv", header + row1 + row2);

@@ -189,7 +189,7 @@ TEST(FlowCurve, TooFewPointsThrowsInsufficientData) {
 }
 
 std::string cv_table(const std::vector<ShearPoint>& pts, const std::vector<std::string>& steady) {
-  std::string s = "N,phi,gdot,sigma_xy,sigma_xy_err,replicas,steady,stable,decorrelated\n";
+  std::string s = "N,phi,shear_rate,sigma_xy,sigma_xy_err,replicas,steady,stable,decorrelated\n";
   for (std::size_t i = 0; i < pts.size(); ++i) {
     const auto& p = pts[i];
     s += std::to_string(p.n) + "," + num(p.phi) + "," + num(p.shear_rate) + "," + num(p.sigma) +
@@ -300,7 +300,7 @@ TEST(FlowCurveCli, TooFewPointsExitsTwoWithOneLine) {
 // volume; flow-curve fits it.
 TEST(FlowCurveCli, EveryAnalysisOnASingleFlowCurveExitsAsTheReadmeSays) {
   ScratchDir dir;
-  std::string cp = "N,P,gdot,phi,phi_err,mu,mu_err\n";
+  std::string cp = "N,imposed_pressure,shear_rate,phi,phi_err,mu,mu_err\n";
   for (double g : decades(1e-9, 1e-5, 5)) {
     const double j = g / 1e-4;
     cp += "1000,1e-4," + num(g) + "," + num(0.645 - 0.3 * std::pow(j, 0.38)) + ",0.0005," +

@@ -218,10 +218,10 @@ TEST_F(ExitStatus, MessagesSayWhatIsWrongAndWhatCanBeDone) {
 
   // A value no fit can use (subnormal P) is named by file and line before any fitting.
   file("tiny.csv",
-       "N,P,gdot,phi,phi_err,mu,mu_err\n100,1e-4,1e-6,0.63,1e-4,0.2,0.01\n"
+       "N,imposed_pressure,shear_rate,phi,phi_err,mu,mu_err\n100,1e-4,1e-6,0.63,1e-4,0.2,0.01\n"
        "100,1e-320,1e-6,0.63,1e-4,0.2,0.01\n");
   expect_usage_error(run({"analyze", "hard-sphere", "tiny.csv", "-o", "t.json", "--no-plots"}),
-                     "tiny.csv:3: column 'P': P = ");
+                     "tiny.csv:3: column 'imposed_pressure': imposed_pressure = ");
   EXPECT_FALSE(fs::exists(dir_ / "t.json"));
 
   // Two particles at one place in an init file: bad input naming the lines, not a failed run.

@@ -46,7 +46,7 @@ def main():
     out = pathlib.Path(namespace["out"])
     rows = [line.split(",") for line in (out / "flow_curves.csv").read_text().splitlines()]
     header, rows = rows[0], rows[1:]
-    assert header[:5] == ["N", "phi", "gdot", "sigma_xy", "sigma_xy_err"], header
+    assert header[:5] == ["N", "phi", "shear_rate", "sigma_xy", "sigma_xy_err"], header
     assert len(rows) == len(grid["phis"]) * len(grid["rates"]), len(rows)
     for row in rows:
         sigma = float(row[3])

@@ -56,7 +56,7 @@ blocks = 4
 """)
 table = jamflow.sweep("s.toml", jobs=1)
 assert len(table["point"]) == 1, table
-rows = ["N,P,gdot,phi,phi_err,mu,mu_err"]
+rows = ["N,imposed_pressure,shear_rate,phi,phi_err,mu,mu_err"]
 for p in (1e-4, 1e-5):
     for j in np.logspace(-5, -1, 9):
         phi, mu = 0.645 - 0.4 * j**0.38, 0.1 + 1.1 * j**0.36

@@ -128,7 +128,7 @@ def test_out_of_range_integers_and_unknown_analyses_are_config_errors(tmp_path):
         scene.set("system.N", np.uint64(2**64 - 1))
     assert scene.get("system.N") == 1000
     data = tmp_path / "d.csv"
-    data.write_text("N,P,gdot,phi,phi_err,mu,mu_err\n100,1e-4,1e-6,0.63,1e-4,0.2,0.01\n")
+    data.write_text("N,imposed_pressure,shear_rate,phi,phi_err,mu,mu_err\n100,1e-4,1e-6,0.63,1e-4,0.2,0.01\n")
     with pytest.raises(jamflow.ConfigError, match="unknown analysis 'nonsense'; allowed"):
         jamflow.analyze("nonsense", data)
 
@@ -328,7 +328,7 @@ def test_sweep_returns_the_collected_table(tmp_path):
     table = jamflow.sweep(path, out=tmp_path / "two.sweep", jobs=2)
     assert len(table["point"]) == 2
     assert isinstance(table["eta"], np.ndarray) and np.all(np.isfinite(table["eta"]))
-    assert same_bits(table["gdot"], np.array([1e-1, 1e-2]))
+    assert same_bits(table["shear_rate"], np.array([1e-1, 1e-2]))
     assert list(table["status"]) == ["complete", "complete"]
     # Each point is the run of its scene.
     one = jamflow.run(points[1]["scene"])
@@ -355,15 +355,17 @@ def test_sweep_of_a_scene_and_a_grid_returns_every_point_failed_ones_too(tmp_pat
     with pytest.warns(RuntimeWarning, match="2 of 4 points did not finish") as caught:
         table = jamflow.sweep(jamflow.Scene(PISTON), out, grid=grid, jobs=2)
     assert all(len(column) == 4 for column in table.values())
-    # The first key varies slowest; the varied keys are columns, the numpy values exactly.
-    assert same_bits(table["shear.rate"], np.concatenate([rates, rates]))
+    # The first key varies slowest; the varied keys are columns, the numpy values exactly, and the
+    # shear rate is the one column shear_rate (no second column "shear.rate").
+    assert same_bits(table["shear_rate"], np.concatenate([rates, rates]))
+    assert "shear.rate" not in table and "gdot" not in table
     assert same_bits(table["ensemble.xi_V"], np.array([1.0, 1.0, 1e-6, 1e-6]))
     status = table["status"]
     assert list(status[:2]) == ["complete", "complete"]
     assert all(s.startswith("failed at t = ") for s in status[2:]), status
     assert np.all(np.isfinite(table["eta"][:2])) and np.all(np.isnan(table["eta"][2:]))
     assert np.all(np.isnan(table["replicas"][2:]))
-    assert same_bits(table["gdot"], table["shear.rate"])  # the scene's columns, failed or not
+    assert same_bits(table["shear_rate"][2:], rates)  # the scene's columns, failed or not
     message = str(caught[0].message)
     for name in table["point"][2:]:
         assert name in message
@@ -429,7 +431,7 @@ def test_numpy_scalars_and_arrays_are_scene_values():
 
 def test_analyze_returns_plain_objects_and_raises_one_line_errors(tmp_path):
     # Pure hard-sphere data at two pressures: phi = phi_J - C J^b, mu = mu_J + C J^b.
-    rows = ["N,P,gdot,phi,phi_err,mu,mu_err"]
+    rows = ["N,imposed_pressure,shear_rate,phi,phi_err,mu,mu_err"]
     for p in (1e-4, 1e-5):
         for j in np.logspace(-5, -1, 9):
             phi, mu = 0.645 - 0.4 * j**0.38, 0.1 + 1.1 * j**0.36
@@ -449,7 +451,7 @@ def test_analyze_returns_plain_objects_and_raises_one_line_errors(tmp_path):
 
 def test_analyze_flow_curve_fits_one_curve_and_marks_failed_rows(tmp_path):
     # One constant-volume curve sigma = sigma_y + K gdot^n, exact, the second row not steady.
-    rows = ["N,phi,gdot,sigma_xy,sigma_xy_err,replicas,steady,stable,decorrelated"]
+    rows = ["N,phi,shear_rate,sigma_xy,sigma_xy_err,replicas,steady,stable,decorrelated"]
     for i, g in enumerate(np.logspace(-6, -2, 6)):
         s = 0.01 + 0.5 * g**0.5
         rows.append(f"1000,0.66,{g!r},{s!r},{0.01 * s!r},1,{0 if i == 1 else 1},1,1")

@@ -112,7 +112,7 @@ TEST(EnsembleStudy, QuickPresetWritesTablePlotAndSensibleNumbers) {
                   std::to_string(used[1]) + " at constant volume"),
       std::string::npos);
 
-  const double p = h.attr_double("/", "pressure");
+  const double p = h.attr_double("/", "imposed_pressure");
   EXPECT_DOUBLE_EQ(p, 1e-5);
   // The ratio NV/NP of the block std of eta is the ratio of the two ensembles' means over their
   // replicas, and its error is propagated from the scatter of those replicas (each mean's

@@ -211,7 +211,7 @@ TEST(SoftnessStudy, TinyQuickPreset) {
   // The common reference (two replicas: usable even when each one's blocks are short, its
   // errors then including the replica scatter): harmonic, a flowing dense suspension.
   const std::string ref = "/reference/J1";
-  EXPECT_DOUBLE_EQ(r.attr_double(ref, "pressure"), 1e-3);
+  EXPECT_DOUBLE_EQ(r.attr_double(ref, "imposed_pressure"), 1e-3);
   ASSERT_EQ(r.attr_int(ref, "usable"), 1);
   EXPECT_GT(r.attr_double(ref, "phi"), 0.45);
   EXPECT_LT(r.attr_double(ref, "phi"), 0.66);
@@ -225,7 +225,7 @@ TEST(SoftnessStudy, TinyQuickPreset) {
   std::map<double, std::string> by_pressure;
   for (int k = 0; k < 2; ++k) {
     const std::string rg = pg + "/runs/r00" + std::to_string(k);
-    by_pressure[r.attr_double(rg, "pressure")] = rg;
+    by_pressure[r.attr_double(rg, "imposed_pressure")] = rg;
     EXPECT_EQ(r.attr_string(rg, "verdict"), "stable") << rg << ": " << r.attr_string(rg, "reason");
     const bool within = std::abs(r.attr_double(rg, "dmu")) <= 2.0 * r.attr_double(rg, "dmu_err") &&
                         std::abs(r.attr_double(rg, "dphi")) <= 2.0 * r.attr_double(rg, "dphi_err");

@@ -332,7 +332,7 @@ grep -q "table.csv: 4 of 4 points" <<<"$out" || fail "--collect printed: $out"
 [ "$(wc -l <"$D1/table.csv")" = 5 ] || fail "table.csv has $(wc -l <"$D1/table.csv") lines, expected a header and 4 rows:
 $(cat "$D1/table.csv")"
 header=$(head -n1 "$D1/table.csv")
-for col in point N P gdot phi phi_err mu mu_err J replicas steady stable decorrelated folder; do
+for col in point N imposed_pressure shear_rate phi phi_err mu mu_err J replicas steady stable decorrelated folder; do
   tr ',' '\n' <<<"$header" | grep -qx "$col" || fail "table.csv header lacks '$col': $header"
 done
 pass "--collect: table.csv has the header and 4 rows"

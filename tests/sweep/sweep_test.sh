@@ -86,7 +86,7 @@ mv six.local six.sweep
 if "$jamflow" sweep six.toml --collect table.csv > collect.out; then ok "--collect"; else bad "--collect"; fi
 rows=$(($(wc -l < table.csv) - 1))
 [ "$rows" -eq 6 ] && ok "6 rows collected" || bad "expected 6 rows, found $rows"
-head -1 table.csv | grep -q "^point,shear.rate,integrator.dt,system.phi,ensemble,N,gdot,phi,phi_err" &&
+head -1 table.csv | grep -q "^point,integrator.dt,system.phi,ensemble,N,shear_rate,phi,phi_err" &&
   ok "table header" || bad "table header: $(head -1 table.csv)"
 # The cost columns: CPU seconds recorded by every run (not wall seconds standing in), and the
 # force-pass equivalents (Euler: its force evaluations).

@@ -87,12 +87,17 @@ TEST(SweepPointTable, FailedAndNotRunPointsAreRowsWithTheirStatus) {
   ASSERT_EQ(t.status.size(), 3u);
   EXPECT_EQ(t.header.back(), "status");
   const std::size_t point = column(t, "point"), status = column(t, "status"),
-                    eta = column(t, "eta"), gdot = column(t, "gdot"),
-                    rate = column(t, "shear.rate"), replicas = column(t, "replicas");
+                    eta = column(t, "eta"), rate = column(t, "shear_rate"),
+                    replicas = column(t, "replicas");
+  // The varied key shear.rate is the column shear_rate, once: one name for one quantity.
+  EXPECT_EQ(std::count(t.header.begin(), t.header.end(), "shear.rate"), 0);
   for (std::size_t i = 0; i < 3; ++i) {
     ASSERT_EQ(t.rows[i].size(), t.header.size());
     EXPECT_EQ(t.rows[i][point], plan.points[i].name);
-    EXPECT_EQ(t.rows[i][gdot], t.rows[i][rate]);  // the scene's cells, finished or not
+    ASSERT_EQ(plan.points[i].values.front().first, "shear.rate");
+    // The scene's cells, finished or not.
+    EXPECT_EQ(std::strtod(t.rows[i][rate].c_str(), nullptr),
+              std::strtod(plan.points[i].values.front().second.c_str(), nullptr));
   }
   EXPECT_EQ(t.status[0], RunStatus::complete());
   EXPECT_EQ(t.rows[0][status], "complete");
