@@ -414,10 +414,16 @@ py::dict timeseries_dict(const jamflow::RunSpec& spec, const jamflow::Series& s)
   return d;
 }
 
+// An empty jamflow._Named: a dict whose keys are the current names, indexed also by the former
+// names of the shear rate and the imposed pressure (with a DeprecationWarning).
+py::dict named() {
+  return py::module_::import("jamflow").attr("_Named")();
+}
+
 // The /summary attributes of the run file (jamflow::summary_attributes), as a dict.
 py::dict summary_dict(const jamflow::RunSpec& spec, const jamflow::ReplicaResult& r,
                       const jamflow::ReplicaResult* summary = nullptr) {
-  py::dict d;
+  py::dict d = named();
   for (const auto& [k, v] : jamflow::summary_attributes(spec, r, summary))
     std::visit([&d, &k = k](const auto& x) { d[py::str(k)] = x; }, v);
   return d;
@@ -592,7 +598,7 @@ void register_data_root() {
 py::dict table_columns(const std::vector<std::string>& header,
                        const std::vector<std::vector<std::string>>& rows) {
   auto numpy = py::module_::import("numpy");
-  py::dict table;
+  py::dict table = named();
   for (std::size_t c = 0; c < header.size(); ++c) {
     std::vector<double> numbers;
     std::vector<std::string> texts;
@@ -921,6 +927,29 @@ class _ProgressDisplay:
 )",
            scope);
   m.attr("_ProgressDisplay") = scope["_ProgressDisplay"];
+  // The dict of a run's summary and of a sweep's table: its keys are the file's, exactly; the
+  // former names of the shear rate and the imposed pressure still index it, with a warning.
+  py::exec(R"(
+class _Named(dict):
+    """A dict of named values under jamflow's one name per quantity (shear_rate,
+    imposed_pressure). The former names gdot, P and pressure_imposed still index it, with a
+    DeprecationWarning; they are not keys (``in``, ``keys()`` and ``get`` see only the current
+    names)."""
+
+    _FORMER = {"gdot": "shear_rate", "P": "imposed_pressure",
+               "pressure_imposed": "imposed_pressure"}
+
+    def __missing__(self, key):
+        current = self._FORMER.get(key) if isinstance(key, str) else None
+        if current is None or not dict.__contains__(self, current):
+            raise KeyError(key)
+        import warnings
+        warnings.warn("'%s' is deprecated; use '%s'" % (key, current), DeprecationWarning,
+                      stacklevel=2)
+        return self[current]
+)",
+           scope);
+  m.attr("_Named") = scope["_Named"];
   m.attr("default_scene") = jamflow::kDefaultScene;
 
   static py::exception<jamflow::ConfigError> config_error(m, "ConfigError", PyExc_ValueError);

@@ -196,6 +196,15 @@ def test_run_with_replicas(tmp_path):
     assert result.summary["replicas"] == 2
     assert "eta_replica_err" in result.summary
     assert same_bits(result.timeseries["sigma_xy"], result.replicas[0].timeseries["sigma_xy"])
+    # The former names of the imposed pressure and the shear rate still index the summary, with
+    # a DeprecationWarning, and are not keys.
+    for former, current in (("pressure_imposed", "imposed_pressure"), ("P", "imposed_pressure"),
+                            ("gdot", "shear_rate")):
+        with pytest.warns(DeprecationWarning, match=f"'{former}' is deprecated; use '{current}'"):
+            assert result.summary[former] == result.summary[current]
+        assert former not in result.summary
+    with pytest.raises(KeyError):
+        result.summary["no_such_key"]
 
 
 # ---- simulations ----------------------------------------------------------------------------
@@ -359,6 +368,8 @@ def test_sweep_of_a_scene_and_a_grid_returns_every_point_failed_ones_too(tmp_pat
     # shear rate is the one column shear_rate (no second column "shear.rate").
     assert same_bits(table["shear_rate"], np.concatenate([rates, rates]))
     assert "shear.rate" not in table and "gdot" not in table
+    with pytest.warns(DeprecationWarning, match="'gdot' is deprecated; use 'shear_rate'"):
+        assert same_bits(table["gdot"], table["shear_rate"])
     assert same_bits(table["ensemble.xi_V"], np.array([1.0, 1.0, 1e-6, 1e-6]))
     status = table["status"]
     assert list(status[:2]) == ["complete", "complete"]
