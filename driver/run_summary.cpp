@@ -6,44 +6,14 @@
 #include <string>
 
 #include "lib/error.hpp"
+#include "lib/h5.hpp"
+#include "lib/h5_handle.hpp"
 
 namespace jamflow {
 
 namespace {
 
-// Silences HDF5's automatic error-stack printing for the lifetime of the
-// guard: a missing attribute is reported by our own message instead.
-class Hdf5ErrorSilencer {
- public:
-  Hdf5ErrorSilencer() {
-    H5Eget_auto2(H5E_DEFAULT, &old_func_, &old_data_);
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  }
-  ~Hdf5ErrorSilencer() { H5Eset_auto2(H5E_DEFAULT, old_func_, old_data_); }
-  Hdf5ErrorSilencer(const Hdf5ErrorSilencer&) = delete;
-  Hdf5ErrorSilencer& operator=(const Hdf5ErrorSilencer&) = delete;
-
- private:
-  H5E_auto2_t old_func_ = nullptr;
-  void* old_data_ = nullptr;
-};
-
-class Handle {
- public:
-  Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
-  ~Handle() {
-    if (id_ >= 0)
-      close_(id_);
-  }
-  Handle(const Handle&) = delete;
-  Handle& operator=(const Handle&) = delete;
-  hid_t get() const { return id_; }
-  bool valid() const { return id_ >= 0; }
-
- private:
-  hid_t id_;
-  herr_t (*close_)(hid_t);
-};
+using Handle = H5Handle;
 
 bool has_attribute(hid_t obj, const char* name) {
   return H5Aexists(obj, name) > 0;
@@ -140,15 +110,15 @@ std::string optional_root_string(hid_t file, const char* name, const std::string
 }  // namespace
 
 RunFileSummary read_run_file_summary(const std::string& path) {
-  Hdf5ErrorSilencer silence;
+  hdf5_setup();  // our one-line errors, not HDF5's printed stack
   Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-  if (!file.valid())
+  if (!file.ok())
     throw InputFileError(path + ": cannot open as an HDF5 file");
   if (H5Lexists(file.get(), "summary", H5P_DEFAULT) <= 0) {
     throw InputFileError(path + ": no /summary group (not a completed `jamflow run` output?)");
   }
   Handle group(H5Gopen2(file.get(), "summary", H5P_DEFAULT), H5Gclose);
-  if (!group.valid())
+  if (!group.ok())
     throw InputFileError(path + ": /summary is not a group");
   const std::string where = path + ": /summary";
   RunFileSummary s;

@@ -14,6 +14,7 @@
 #include <variant>
 
 #include "lib/error.hpp"
+#include "lib/h5_handle.hpp"
 
 namespace jamflow {
 
@@ -66,26 +67,7 @@ std::string hdf5_reason() {
   return reason.empty() ? "HDF5 error" : reason;
 }
 
-// Owns one HDF5 identifier; the close function depends on the kind of object.
-class Handle {
- public:
-  Handle(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
-  ~Handle() {
-    if (id_ >= 0)
-      close_(id_);
-  }
-  Handle(Handle&& other) noexcept
-      : id_(std::exchange(other.id_, H5I_INVALID_HID)), close_(other.close_) {}
-  Handle(const Handle&) = delete;
-  Handle& operator=(const Handle&) = delete;
-  Handle& operator=(Handle&&) = delete;
-  hid_t get() const { return id_; }
-  bool ok() const { return id_ >= 0; }
-
- private:
-  hid_t id_;
-  herr_t (*close_)(hid_t);
-};
+using Handle = H5Handle;
 
 std::string quoted(const std::string& s) {
   return "'" + s + "'";
