@@ -160,10 +160,9 @@ void write_csv_table(const std::string& path, const std::vector<std::string>& he
   write_text_atomically(path, os.str());
 }
 
-void write_h5_table(const std::string& path, const std::vector<std::string>& header,
+void write_h5_table(H5Writer& w, const std::string& group, const std::vector<std::string>& header,
                     const std::vector<std::vector<std::string>>& rows) {
-  H5Writer w(path, ".tmp." + std::to_string(::getpid()));
-  w.group("/table", true);  // h5py lists the columns in the table's order
+  w.group(group, true);  // h5py lists the columns in the table's order
   for (std::size_t c = 0; c < header.size(); ++c) {
     std::vector<double> numbers;
     std::vector<std::string> cells;
@@ -181,12 +180,18 @@ void write_h5_table(const std::string& path, const std::vector<std::string>& hea
       numbers.push_back(v);
     }
     if (numeric)
-      w.dataset("/table/" + header[c], numbers);
+      w.dataset(group + "/" + header[c], numbers);
     else
-      w.dataset("/table/" + header[c], cells);
+      w.dataset(group + "/" + header[c], cells);
   }
-  w.attr("/table", "columns", header);
-  w.attr("/table", "rows", static_cast<std::int64_t>(rows.size()));
+  w.attr(group, "columns", header);
+  w.attr(group, "rows", static_cast<std::int64_t>(rows.size()));
+}
+
+void write_h5_table(const std::string& path, const std::vector<std::string>& header,
+                    const std::vector<std::vector<std::string>>& rows) {
+  H5Writer w(path, ".tmp." + std::to_string(::getpid()));
+  write_h5_table(w, "/table", header, rows);
   w.commit();
 }
 

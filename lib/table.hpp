@@ -9,6 +9,8 @@
 
 namespace jamflow {
 
+class H5Writer;
+
 struct Table {
   std::string path;  // the file it was read from ("" for a table built in memory)
   std::vector<std::string> header;
@@ -51,6 +53,10 @@ void write_csv_table(const std::string& path, const std::vector<std::string>& he
 // column variable-length UTF-8 strings; the attribute "rows" is the number of rows. Readers
 // build a DataFrame from the datasets (docs/guide/sweeps.md).
 void write_h5_table(const std::string& path, const std::vector<std::string>& header,
+                    const std::vector<std::vector<std::string>>& rows);
+
+// The same table as the group `group` of a file being written (a study's <study>.h5 /points).
+void write_h5_table(H5Writer& w, const std::string& group, const std::vector<std::string>& header,
                     const std::vector<std::vector<std::string>>& rows);
 
 }  // namespace jamflow

@@ -221,28 +221,4 @@ std::string verdicts_markdown(const Table& table, const std::string& what) {
   return md.str();
 }
 
-void write_points_h5(H5Writer& w, const Table& table, const std::string& group) {
-  w.group(group);
-  std::string names;
-  for (std::size_t r = 0; r < table.rows.size(); ++r)
-    names.append(r ? "\n" : "").append(table.text(r, "point"));
-  w.attr(group, "names", names);
-  for (const auto& col : table.header) {
-    if (col == "point" || col == "ensemble" || col == "folder")
-      continue;
-    std::vector<double> v;
-    bool numeric = true;
-    for (std::size_t r = 0; r < table.rows.size() && numeric; ++r) {
-      const std::string cell = table.text(r, col);
-      char* end = nullptr;
-      const double x = cell.empty() ? std::nan("") : std::strtod(cell.c_str(), &end);
-      if (!cell.empty() && (end == nullptr || *end != '\0'))
-        numeric = false;
-      v.push_back(x);
-    }
-    if (numeric && col.find('.') == std::string::npos)
-      w.dataset(group + "/" + col, v);
-  }
-}
-
 }  // namespace jamflow::studies

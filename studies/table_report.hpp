@@ -56,7 +56,4 @@ std::vector<std::vector<std::string>> flagged_rows(const Table& table);
 // The "## Verdicts" section of a report for one table.
 std::string verdicts_markdown(const Table& table, const std::string& what);
 
-// The table's numeric columns under `group` (names of the points as an attribute).
-void write_points_h5(H5Writer& w, const Table& table, const std::string& group);
-
 }  // namespace jamflow::studies

@@ -214,25 +214,7 @@ int analyze_and_report(const std::string& study, const GridPreset& grid, const S
     w.attr("/", "study", study);
     w.attr("/", "preset", grid.name);
     w.attr("/", "analysis_status", static_cast<std::int64_t>(analysis_status));
-    w.group("/points");
-    w.attr("/points", "names", [&] {
-      std::string s;
-      for (std::size_t r = 0; r < table.rows.size(); ++r) {
-        if (r)
-          s += '\n';
-        s += table.text(r, "point");
-      }
-      return s;
-    }());
-    for (const char* col :
-         {"N", "imposed_pressure", "shear_rate", "phi", "phi_err", "pressure", "pressure_err",
-          "sigma_xy", "sigma_xy_err", "eta", "eta_err", "mu", "mu_err", "J", "energy_balance",
-          "replicas", "steady", "stable", "decorrelated"}) {
-      std::vector<double> v;
-      for (std::size_t r = 0; r < table.rows.size(); ++r)
-        v.push_back(table.number(r, col));
-      w.dataset(std::string("/points/") + col, v);
-    }
+    write_h5_table(w, "/points", table.header, table.rows);
     if (result.is_object() && result.contains("sizes")) {
       for (const auto& [n, fit] : result.at("sizes").members()) {
         const std::string g = "/fits/N" + n;

@@ -125,7 +125,7 @@ int report(const VolumePreset& preset, const SweepStudy& run, const StudyOptions
     w.attr("/", "study", kStudy);
     w.attr("/", "preset", preset.name);
     w.attr("/", "analysis_status", static_cast<std::int64_t>(analysis_status));
-    write_points_h5(w, table, "/points");
+    write_h5_table(w, "/points", table.header, table.rows);
     if (result.is_object() && result.contains("best")) {
       w.group("/fits");
       const auto& best = result.at("best");

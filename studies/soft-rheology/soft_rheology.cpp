@@ -351,8 +351,8 @@ int report(const soft_rheology::Preset& preset, const SweepStudy& cp, const Swee
     w.attr("/", "study", kStudy);
     w.attr("/", "preset", preset.pressure.name);
     w.attr("/", "analysis_status", static_cast<std::int64_t>(analysis_status));
-    write_points_h5(w, cp_table, "/constant_pressure");
-    write_points_h5(w, cv_table, "/constant_volume");
+    write_h5_table(w, "/constant_pressure", cp_table.header, cp_table.rows);
+    write_h5_table(w, "/constant_volume", cv_table.header, cv_table.rows);
     if (result.is_object() && result.contains("sizes")) {
       for (const auto& [n, size] : result.at("sizes").members()) {
         if (!size.contains("joint"))
