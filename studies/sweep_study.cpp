@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "lib/error.hpp"
+#include "lib/table.hpp"
 #include "studies/common.hpp"
 #include "sweep/collect.hpp"
 #include "sweep/engine.hpp"
@@ -136,6 +137,20 @@ std::optional<int> run_sweep_study(const std::string& study, const std::string& 
   if (c.rows == 0)
     throw ConfigError(study + ": no point finished; allowed a preset whose points run");
   return std::nullopt;
+}
+
+SweepStudy existing_sweep(const std::string& out_dir) {
+  namespace fs = std::filesystem;
+  SweepStudy s;
+  const fs::path sweep_file = fs::path(out_dir) / "sweep.toml";
+  s.table = (fs::path(out_dir) / "table.csv").string();
+  if (!fs::exists(sweep_file) || !fs::exists(s.table))
+    throw ConfigError("--report-only: " + sweep_file.string() + " and " + s.table +
+                      " must exist (allowed: an output folder of an earlier run of the study)");
+  s.plan = sweep::load_plan(sweep_file.string(), out_dir);
+  s.finished = read_csv_table(s.table).rows.size();
+  s.cpu_hours_estimate = sweep::estimate_cost(s.plan).cpu_hours;
+  return s;
 }
 
 }  // namespace jamflow::studies

@@ -47,4 +47,8 @@ std::optional<int> run_sweep_study(const std::string& study, const std::string& 
                                    const StudyOptions& options, SweepStudy& out,
                                    const SweepStage& stage = {});
 
+// The sweep and table already in an output folder (OUT/sweep.toml, OUT/table.csv), for
+// --report-only. Throws ConfigError when either is missing.
+SweepStudy existing_sweep(const std::string& out_dir);
+
 }  // namespace jamflow::studies

@@ -11,7 +11,7 @@
 #include "analysis/soft.hpp"
 #include "lib/config.hpp"
 #include "lib/error.hpp"
-#include "studies/hard-sphere/points.hpp"
+#include "studies/pressure_points.hpp"
 
 namespace jamflow::studies {
 
@@ -50,7 +50,7 @@ std::string volume_sweep_text(const VolumePreset& g) {
         teq_axis.push_back(t_eq);
         tav_axis.push_back(t_av);
         sample_axis.push_back(round3(t_av / g.samples));
-        integ_axis.push_back(hard_sphere::integrator_table(hard_sphere::integrator_for(n, p)));
+        integ_axis.push_back(integrator_for(n, p).settings.table());
       }
     }
   }

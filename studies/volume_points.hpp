@@ -31,7 +31,7 @@ struct VolumePreset {
 double expected_pressure(double phi, double gdot);
 
 // The preset's sweep file (base scene and the zip of every point). Each point's integrator is
-// hard_sphere::integrator_for(N, expected_pressure) (the timestep study's findings); sizes
+// integrator_for(N, expected_pressure) (the timestep study's findings); sizes
 // below 250 are refused (that choice is for a piston, which a constant volume has not).
 std::string volume_sweep_text(const VolumePreset& preset);
 

@@ -2,16 +2,15 @@
 // limit O(N) = O_inf + A_O N^-alpha_O (the seed's Table 2, Figs. 5-6) with nu from phi and
 // from mu. The same points and analysis as the hard-sphere study, over more sizes. See
 // README.md in this folder.
-#include "studies/hard-sphere/points.hpp"
-#include "studies/hard-sphere/report.hpp"
+#include "studies/granular_report.hpp"
+#include "studies/pressure_points.hpp"
 #include "studies/study.hpp"
 
 namespace jamflow::studies {
 namespace {
 
 int run(const StudyOptions& options) {
-  return hard_sphere::run_grid_study("finite-size", hard_sphere::finite_size_preset(options.preset),
-                                     options);
+  return granular::run_grid_study("finite-size", finite_size_preset(options.preset), options);
 }
 
 const Registrar reg{{"finite-size",

@@ -1,15 +1,14 @@
 // `jamflow study hard-sphere`: the granular rheology of the hard-sphere limit (the seed's
 // Figs. 2-4 and 7) from jamflow's own constant-pressure runs. See README.md in this folder.
-#include "studies/hard-sphere/points.hpp"
-#include "studies/hard-sphere/report.hpp"
+#include "studies/granular_report.hpp"
+#include "studies/pressure_points.hpp"
 #include "studies/study.hpp"
 
 namespace jamflow::studies {
 namespace {
 
 int run(const StudyOptions& options) {
-  return hard_sphere::run_grid_study("hard-sphere", hard_sphere::grid_preset(options.preset),
-                                     options);
+  return granular::run_grid_study("hard-sphere", grid_preset(options.preset), options);
 }
 
 const Registrar reg{{"hard-sphere",

@@ -16,7 +16,7 @@
 #include "analysis/seed.hpp"
 #include "lib/error.hpp"
 #include "studies/common.hpp"
-#include "studies/hard-sphere/report.hpp"
+#include "studies/granular_report.hpp"
 #include "studies/olsson-teitel/points.hpp"
 #include "studies/olsson-teitel/report.hpp"
 #include "studies/study.hpp"
@@ -369,7 +369,7 @@ namespace {
 // replicas, and the cost the current model estimates for them.
 SweepStudy existing_points(const VolumePreset& preset, const std::string& out_dir) {
   if (fs::exists(fs::path(out_dir) / "sweep.toml"))
-    return hard_sphere::existing_sweep(out_dir);
+    return existing_sweep(out_dir);
   SweepStudy s;
   s.table = (fs::path(out_dir) / "table.csv").string();
   if (!fs::exists(s.table))

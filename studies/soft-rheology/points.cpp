@@ -8,7 +8,7 @@ Preset preset(const std::string& name) {
   Preset p;
   // The constant-pressure grid starts from the hard-sphere study's preset of the same name
   // (run lengths, samples, replicas) and changes the grid.
-  p.pressure = hard_sphere::grid_preset(name);
+  p.pressure = grid_preset(name);
   p.pressure.study = "soft-rheology";
   p.volume.study = "soft-rheology";
   p.volume.name = name;

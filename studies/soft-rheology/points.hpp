@@ -4,14 +4,14 @@
 #pragma once
 #include <string>
 
-#include "studies/hard-sphere/points.hpp"
+#include "studies/pressure_points.hpp"
 #include "studies/volume_points.hpp"
 
 namespace jamflow::studies::soft_rheology {
 
 struct Preset {
-  hard_sphere::GridPreset pressure;  // constant pressure: sizes x pressures x J
-  VolumePreset volume;               // constant volume above phi_J
+  GridPreset pressure;  // constant pressure: sizes x pressures x J
+  VolumePreset volume;  // constant volume above phi_J
 };
 
 // quick (CI: the pipeline end to end, not the physics), standard (about 2 h on 2 cores),

@@ -11,7 +11,7 @@
 #include "analysis/analyze_cli.hpp"
 #include "analysis/seed.hpp"
 #include "studies/common.hpp"
-#include "studies/hard-sphere/report.hpp"
+#include "studies/granular_report.hpp"
 #include "studies/soft-rheology/points.hpp"
 #include "studies/soft-rheology/report.hpp"
 #include "studies/study.hpp"
@@ -394,11 +394,11 @@ int run(const StudyOptions& options) {
   cp_options.out_dir = (fs::path(options.out_dir) / "constant-pressure").string();
   cv_options.out_dir = (fs::path(options.out_dir) / "constant-volume").string();
   if (options.report_only)
-    return report(preset, hard_sphere::existing_sweep(cp_options.out_dir),
-                  hard_sphere::existing_sweep(cv_options.out_dir), options, 0.0);
+    return report(preset, existing_sweep(cp_options.out_dir), existing_sweep(cv_options.out_dir),
+                  options, 0.0);
   SweepStudy cp, cv;
   const auto cp_status =
-      run_sweep_study(kStudy, hard_sphere::sweep_text(preset.pressure), cp_options, cp);
+      run_sweep_study(kStudy, pressure_sweep_text(preset.pressure), cp_options, cp);
   if (cp_status && *cp_status != 0)
     return *cp_status;  // stopped: the checkpoints continue on the next run
   const auto cv_status = run_sweep_study(kStudy, volume_sweep_text(preset.volume), cv_options, cv);

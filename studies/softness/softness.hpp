@@ -38,7 +38,7 @@ struct SoftnessPreset {
   double mu_tolerance = 0.01, phi_tolerance = 1e-3;  // "accurate" (plus 2x paired floor)
   // Phase B (pressure scan) durations: t_eq = max(t_min, strain_eq / gdot, relax_pressure / P),
   // t_av = max(t_min, strain_av / gdot, average_pressure / P): a constant-pressure run relaxes
-  // on the time scale xi_s a / P (studies/hard-sphere/points.hpp), and its correlation times
+  // on the time scale xi_s a / P (studies/pressure_points.hpp), and its correlation times
   // grow the same way, so blocks of average_pressure / (20 P).
   double strain_eq = 0.1, strain_av = 0.5, t_min = 1000.0;
   double relax_pressure = 5.0, average_pressure = 20.0;

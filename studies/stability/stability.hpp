@@ -8,12 +8,6 @@
 
 namespace jamflow::studies {
 
-struct RespaSplitting {
-  std::string inner;  // "particles" | "piston"
-  int n_inner = 4;
-  std::string scheme;  // "euler" | "heun"
-};
-
 // Sizes, durations and scan lists of a preset (the physics and the analysis never change).
 struct StabilityPreset {
   std::string name;

@@ -28,7 +28,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kSampleGrid = 12.0;
 // Preparation length at constant pressure, in units of 1 / P (xi_s = a = 1): at N = 1000,
 // P = 3e-4, J = 1, phi was within 0.002 of its steady value by t = 1.5 / P (the hard-sphere
-// study's measurement, studies/hard-sphere/points.hpp).
+// study's measurement, studies/pressure_points.hpp).
 constexpr double kRelaxPressure = 5.0;
 
 StatePoint cp_point(std::int64_t n, double pressure, double gdot) {

@@ -5,7 +5,6 @@
 #include <vector>
 
 #include "studies/diagnostics.hpp"
-#include "studies/stability/stability.hpp"
 #include "studies/study.hpp"
 
 namespace jamflow::studies {

@@ -8,15 +8,15 @@
 
 #include "analysis/seed.hpp"
 #include "studies/common.hpp"
-#include "studies/hard-sphere/points.hpp"
-#include "studies/hard-sphere/report.hpp"
+#include "studies/granular_report.hpp"
+#include "studies/pressure_points.hpp"
 #include "sweep/plan.hpp"
 
-namespace jamflow::studies::hard_sphere {
+namespace jamflow::studies {
 namespace {
 
 sweep::Plan plan_of(const GridPreset& g) {
-  return sweep::parse_plan(sweep_text(g), "hs.toml", "/tmp", "/tmp/hs-runs");
+  return sweep::parse_plan(pressure_sweep_text(g), "hs.toml", "/tmp", "/tmp/hs-runs");
 }
 
 TEST(HardSpherePoints, StandardGridIsEveryPressureAndJAboveTheRateFloor) {
@@ -52,12 +52,13 @@ TEST(HardSpherePoints, StandardGridIsEveryPressureAndJAboveTheRateFloor) {
 }
 
 TEST(HardSpherePoints, IntegratorFollowsSizeAndPressure) {
-  EXPECT_EQ(integrator_for(1000, 1e-5).kind, "rkc");
-  EXPECT_DOUBLE_EQ(integrator_for(1000, 1e-5).atol, 1e-6);
-  EXPECT_EQ(integrator_for(1000, 1e-3).kind, "respa");
-  EXPECT_EQ(integrator_for(1000, 1e-3).dt, 1.0);
-  EXPECT_EQ(integrator_for(300, 1e-3).dt, 0.5);
-  EXPECT_EQ(integrator_for(100, 1e-3).inner, "piston");
+  EXPECT_EQ(integrator_for(1000, 1e-5).settings.kind, "rkc");
+  EXPECT_DOUBLE_EQ(*integrator_for(1000, 1e-5).settings.number("atol"), 1e-6);
+  EXPECT_EQ(integrator_for(1000, 1e-3).settings.kind, "respa");
+  EXPECT_EQ(integrator_for(1000, 1e-3).settings.number("dt"), 1.0);
+  EXPECT_EQ(integrator_for(300, 1e-3).settings.number("dt"), 0.5);
+  EXPECT_EQ(integrator_for(100, 1e-3).settings.table()["inner"].value<std::string>(), "piston");
+  EXPECT_EQ(integrator_for(100, 1e-3).settings.number("n_inner"), 8.0);
   // The paper preset's sweep is valid in every point (RKC has no dt key, RESPA has one).
   const sweep::Plan paper = plan_of(grid_preset("paper"));
   bool rkc = false, piston = false;
@@ -97,4 +98,4 @@ TEST(HardSpherePoints, SeedValuesFollowTable2) {
 }
 
 }  // namespace
-}  // namespace jamflow::studies::hard_sphere
+}  // namespace jamflow::studies

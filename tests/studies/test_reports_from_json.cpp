@@ -14,7 +14,7 @@
 #include "analysis/json.hpp"
 #include "analysis/seed.hpp"
 #include "studies/common.hpp"
-#include "studies/hard-sphere/report.hpp"
+#include "studies/granular_report.hpp"
 #include "studies/olsson-teitel/points.hpp"
 #include "studies/olsson-teitel/report.hpp"
 #include "studies/soft-rheology/points.hpp"
@@ -92,16 +92,15 @@ void load_grid(GridInputs& in, const std::string& study) {
   const std::string json = in.scratch.copy(results, "analysis.json");
   in.scratch.copy(results, "table.csv");
   in.scratch.copy(results, "sweep.toml");
-  in.run = hard_sphere::existing_sweep(in.scratch.dir());
+  in.run = existing_sweep(in.scratch.dir());
   in.table = read_table(in.run.table);
   in.result = load(json);
 }
 
 std::string grid_report(const std::string& study, const GridInputs& in, const Json& result) {
-  const hard_sphere::GridPreset grid = study == "finite-size"
-                                           ? hard_sphere::finite_size_preset("standard")
-                                           : hard_sphere::grid_preset("standard");
-  return hard_sphere::report_markdown(study, grid, in.run, in.table, result, 0, 0.0);
+  const GridPreset grid =
+      study == "finite-size" ? finite_size_preset("standard") : grid_preset("standard");
+  return granular::report_markdown(study, grid, in.run, in.table, result, 0, 0.0);
 }
 
 // The phi_J row of size N in the per-N fits: its value and its verdict against the seed's law at
@@ -179,8 +178,8 @@ void load_soft(SoftInputs& in) {
     in.scratch.copy(results + "/" + sub, "table.csv", sub);
     in.scratch.copy(results + "/" + sub, "sweep.toml", sub);
   }
-  in.cp = hard_sphere::existing_sweep(in.scratch.dir("constant-pressure"));
-  in.cv = hard_sphere::existing_sweep(in.scratch.dir("constant-volume"));
+  in.cp = existing_sweep(in.scratch.dir("constant-pressure"));
+  in.cv = existing_sweep(in.scratch.dir("constant-volume"));
   in.cp_table = read_table(in.cp.table);
   in.cv_table = read_table(in.cv.table);
   in.result = load(json);

@@ -10,7 +10,7 @@
 
 #include "analysis/seed.hpp"
 #include "lib/error.hpp"
-#include "studies/hard-sphere/report.hpp"
+#include "studies/granular_report.hpp"
 #include "studies/olsson-teitel/points.hpp"
 #include "studies/soft-rheology/points.hpp"
 #include "sweep/plan.hpp"
@@ -52,8 +52,9 @@ TEST(OlssonTeitelPoints, BothSidesOfJammingOverThreeDecades) {
       EXPECT_EQ(pt.scene.table("ensemble")->get("kind")->as_string()->get(), "constant_volume");
       const double phi = number(pt, "system", "phi"), rate = number(pt, "shear", "rate");
       const double n = number(pt, "system", "N");
-      const auto ic = hard_sphere::integrator_for(std::int64_t(n), expected_pressure(phi, rate));
-      EXPECT_EQ(pt.scene.table("integrator")->get("kind")->as_string()->get(), ic.kind) << pt.name;
+      const auto ic = integrator_for(std::int64_t(n), expected_pressure(phi, rate));
+      EXPECT_EQ(pt.scene.table("integrator")->get("kind")->as_string()->get(), ic.settings.kind)
+          << pt.name;
       EXPECT_GE(number(pt, "run", "t_eq") * rate, g.strain_eq * 0.995) << pt.name;
       EXPECT_GE(number(pt, "run", "t_av") * rate, g.strain_av * 0.995) << pt.name;
     }
@@ -86,9 +87,9 @@ TEST(SoftRheologyPoints, PressuresForTheExponentsAndVolumesAboveJamming) {
     const soft_rheology::Preset g = soft_rheology::preset(name);
     // The joint fit needs three pressures at least; x and y need their lever arm.
     EXPECT_GE(g.pressure.pressures.size(), 3u) << name;
-    const sweep::Plan cp = plan_of(hard_sphere::sweep_text(g.pressure));
+    const sweep::Plan cp = plan_of(pressure_sweep_text(g.pressure));
     EXPECT_GE(cp.points.size(), 11u) << name;
-    EXPECT_NE(hard_sphere::sweep_text(g.pressure).find("soft-rheology study"), std::string::npos);
+    EXPECT_NE(pressure_sweep_text(g.pressure).find("soft-rheology study"), std::string::npos);
     const sweep::Plan cv = plan_of(volume_sweep_text(g.volume));
     for (const auto& pt : cv.points) {
       const double n = number(pt, "system", "N");

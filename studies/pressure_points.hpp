@@ -9,7 +9,9 @@
 
 #include <toml++/toml.h>
 
-namespace jamflow::studies::hard_sphere {
+#include "integrators/registry.hpp"
+
+namespace jamflow::studies {
 
 struct GridPreset {
   std::string name;
@@ -44,20 +46,13 @@ GridPreset finite_size_preset(const std::string& preset);
 // the piston on the inner level (8 sub-steps) at dt = 0.1: the piston's rate K / (V xi_V) is large
 // in small boxes (explicit Euler at dt = 0.1 oscillated at N = 64, P = 1e-2: force-step correlation
 // -0.53, energy balance 0.002), and dt = 0.1 is the seed's small-N step (lanes at dt >= 0.3).
-struct IntegratorChoice {
-  std::string kind;
-  double dt = 0.0;  // 0 for CVODE
-  double rtol = 0.0;
-  std::string inner;  // RESPA's inner level
-  int n_inner = 0;
+struct PointIntegrator {
+  IntegratorSettings settings;  // the [integrator] section the point runs with
   std::string why;
-  double atol = 0.0;  // RKC's absolute tolerance
 };
-IntegratorChoice integrator_for(std::int64_t n, double pressure);
-// The [integrator] table of a choice, as a sweep's zip carries it.
-toml::table integrator_table(const IntegratorChoice& choice);
+PointIntegrator integrator_for(std::int64_t n, double pressure);
 
 // Writes the preset's sweep file (base scene and the zip of every point) and returns its text.
-std::string sweep_text(const GridPreset& preset);
+std::string pressure_sweep_text(const GridPreset& preset);
 
-}  // namespace jamflow::studies::hard_sphere
+}  // namespace jamflow::studies

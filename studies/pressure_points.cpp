@@ -1,4 +1,4 @@
-#include "studies/hard-sphere/points.hpp"
+#include "studies/pressure_points.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -12,7 +12,7 @@
 #include "lib/error.hpp"
 #include "studies/common.hpp"
 
-namespace jamflow::studies::hard_sphere {
+namespace jamflow::studies {
 
 namespace {
 
@@ -81,52 +81,28 @@ GridPreset finite_size_preset(const std::string& preset) {
   return g;
 }
 
-IntegratorChoice integrator_for(std::int64_t n, double pressure) {
+PointIntegrator integrator_for(std::int64_t n, double pressure) {
   if (pressure <= 1e-4) {
     // atol in units of the typical overlap delta = P (alpha_r = 2). At atol = delta the window
     // means agree with Euler's at J >= 1e-3 (benchmarks/README.md), but at J = 3e-4, P = 1e-5
     // (gdot = 3e-9, steps of 400-900 tau_0) the energy balance was 0.88 and 0.90 in two
     // replicas: the stability verdict fails. 0.1 delta costs about 1.8x more per tau_0.
-    IntegratorChoice c{"rkc",
-                       0.0,
-                       0.0,
-                       "",
-                       0,
-                       "RKC, atol = 0.1 delta: cheapest near jamming (P <= 1e-4) whose runs pass "
-                       "the stability verdict"};
-    c.atol = 0.1 * pressure;
-    return c;
+    return {IntegratorSettings("rkc").set("atol", 0.1 * pressure),
+            "RKC, atol = 0.1 delta: cheapest near jamming (P <= 1e-4) whose runs pass the "
+            "stability verdict"};
   }
   if (n >= 500)
-    return {"respa", 1.0, 0.0, "", 0, "RESPA, particles inner, dt = 1: stable at N >= 500"};
+    return {IntegratorSettings("respa").set("dt", 1.0),
+            "RESPA, particles inner, dt = 1: stable at N >= 500"};
   if (n >= 250)
-    return {"respa", 0.5, 0.0,
-            "",      0,   "RESPA, particles inner, dt = 0.5: dt = 1 oscillates at N = 250"};
-  return {"respa",
-          0.1,
-          0.0,
-          "piston",
-          8,
+    return {IntegratorSettings("respa").set("dt", 0.5),
+            "RESPA, particles inner, dt = 0.5: dt = 1 oscillates at N = 250"};
+  return {IntegratorSettings("respa").set("dt", 0.1).set("inner", "piston").set("n_inner", 8),
           "RESPA, piston inner (8 sub-steps), dt = 0.1 below N = 250: a stiff piston in a small "
           "box"};
 }
 
-toml::table integrator_table(const IntegratorChoice& ic) {
-  toml::table integ{{"kind", ic.kind}};
-  if (ic.kind == "cvode")
-    integ.insert("rtol", ic.rtol);
-  else if (ic.kind == "rkc")
-    integ.insert("atol", ic.atol);
-  else
-    integ.insert("dt", ic.dt);
-  if (!ic.inner.empty()) {
-    integ.insert("inner", ic.inner);
-    integ.insert("n_inner", ic.n_inner);
-  }
-  return integ;
-}
-
-std::string sweep_text(const GridPreset& g) {
+std::string pressure_sweep_text(const GridPreset& g) {
   toml::array n_axis, phi_axis, p_axis, rate_axis, teq_axis, tav_axis, sample_axis, integ_axis;
   for (const auto n : g.sizes) {
     for (const double p : g.pressures) {
@@ -146,7 +122,7 @@ std::string sweep_text(const GridPreset& g) {
         teq_axis.push_back(t_eq);
         tav_axis.push_back(t_av);
         sample_axis.push_back(round3(t_av / g.samples));
-        integ_axis.push_back(integrator_table(integrator_for(n, p)));
+        integ_axis.push_back(integrator_for(n, p).settings.table());
       }
     }
   }
@@ -182,4 +158,4 @@ std::string sweep_text(const GridPreset& g) {
   return os.str();
 }
 
-}  // namespace jamflow::studies::hard_sphere
+}  // namespace jamflow::studies

@@ -1,4 +1,4 @@
-#include "studies/hard-sphere/report.hpp"
+#include "studies/granular_report.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -22,7 +22,7 @@
 #include "sweep/engine.hpp"
 #include "sweep/plan.hpp"
 
-namespace jamflow::studies::hard_sphere {
+namespace jamflow::studies::granular {
 namespace fs = std::filesystem;
 
 namespace {
@@ -39,12 +39,12 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
   };
   // Integrator label of a point as the preset chooses it (for the paper preset's points)...
   const auto label = [](std::int64_t n, double p) {
-    const IntegratorChoice ic = integrator_for(n, p);
+    const IntegratorSettings ic = integrator_for(n, p).settings;
     if (ic.kind == "cvode")
       return std::string("cvode");
     if (ic.kind == "rkc")
       return std::string("rkc atol=0.1 delta");
-    return ic.kind + " dt " + num(ic.dt, 2);
+    return ic.kind + " dt " + num(ic.number("dt").value_or(0.0), 2);
   };
   // ...and as the table records it (what the points really ran), in the same words.
   const auto table_label = [&](std::size_t r) {
@@ -154,7 +154,8 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
   try {
     const GridPreset paper =
         study == "finite-size" ? finite_size_preset("paper") : grid_preset("paper");
-    const sweep::Plan plan = sweep::parse_plan(sweep_text(paper), "<paper preset>", ".", "paper");
+    const sweep::Plan plan =
+        sweep::parse_plan(pressure_sweep_text(paper), "<paper preset>", ".", "paper");
     const sweep::CostEstimate est = sweep::estimate_cost(plan);
     md << "\nThe paper preset (" << plan.points.size() << " points x " << plan.replicas
        << " replicas) is estimated at " << num(est.cpu_hours, 3)
@@ -169,25 +170,12 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
 
 }  // namespace
 
-SweepStudy existing_sweep(const std::string& out_dir) {
-  SweepStudy s;
-  const fs::path sweep_file = fs::path(out_dir) / "sweep.toml";
-  s.table = (fs::path(out_dir) / "table.csv").string();
-  if (!fs::exists(sweep_file) || !fs::exists(s.table))
-    throw ConfigError("--report-only: " + sweep_file.string() + " and " + s.table +
-                      " must exist (allowed: an output folder of an earlier run of the study)");
-  s.plan = sweep::load_plan(sweep_file.string(), out_dir);
-  s.finished = read_table(s.table).rows.size();
-  s.cpu_hours_estimate = sweep::estimate_cost(s.plan).cpu_hours;
-  return s;
-}
-
 int run_grid_study(const std::string& study, const GridPreset& grid, const StudyOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   if (options.report_only)
     return analyze_and_report(study, grid, existing_sweep(options.out_dir), options, 0.0);
   SweepStudy points;
-  if (auto status = run_sweep_study(study, sweep_text(grid), options, points))
+  if (auto status = run_sweep_study(study, pressure_sweep_text(grid), options, points))
     return *status;
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -571,4 +559,4 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
   return md.str();
 }
 
-}  // namespace jamflow::studies::hard_sphere
+}  // namespace jamflow::studies::granular

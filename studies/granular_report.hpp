@@ -6,12 +6,12 @@
 #include <string>
 
 #include "analysis/json.hpp"
-#include "studies/hard-sphere/points.hpp"
+#include "studies/pressure_points.hpp"
 #include "studies/study.hpp"
 #include "studies/sweep_study.hpp"
 #include "studies/table_report.hpp"
 
-namespace jamflow::studies::hard_sphere {
+namespace jamflow::studies::granular {
 
 // Writes OUT/analysis.json (+ .md, PNGs: what `jamflow analyze hard-sphere -o` writes),
 // OUT/flow_curves.png, OUT/<study>.h5 and OUT/report.md. Returns the exit status.
@@ -29,8 +29,4 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
 // analyze_and_report. Returns the exit status (that of the engine when it stopped early).
 int run_grid_study(const std::string& study, const GridPreset& grid, const StudyOptions& options);
 
-// The sweep and table already in an output folder (OUT/sweep.toml, OUT/table.csv), for
-// --report-only. Throws ConfigError when either is missing.
-SweepStudy existing_sweep(const std::string& out_dir);
-
-}  // namespace jamflow::studies::hard_sphere
+}  // namespace jamflow::studies::granular
