@@ -10,9 +10,15 @@
 #    --dry-run and write the first stage's job array with --slurm.
 #  - soft-rheology and olsson-teitel (quick) write their report, HDF5 file and figures, and
 #    their analysis is `jamflow analyze soft` / `olsson-teitel` on their collected tables.
-# usage: sweep_studies_test.sh JAMFLOW_BINARY
+#  - every quick preset run here gives exactly the committed numbers
+#    (tests/studies/data/quick/<study>/, compared by quick_numbers.py): the runs use the portable
+#    force kernel, whose bits are the same on every x86-64 machine, so that a port of the studies
+#    that changes no physics changes no number.
+# usage: sweep_studies_test.sh JAMFLOW_BINARY SOURCE_DIR
 set -uo pipefail
 jamflow="$(realpath "$1")"
+src="$(realpath "$2")"
+export JAMFLOW_KERNEL=portable
 py=/usr/bin/python3
 work="$(mktemp -d /tmp/jamflow-sweep-studies.XXXXXX)"
 trap 'rm -rf "$work"' EXIT
@@ -30,6 +36,16 @@ if [ -n "${JAMFLOW_SHORT_TESTS:-}" ] && [ "${JAMFLOW_SHORT_TESTS}" != 0 ]; then
   short=1
   echo "[shortened] SweepStudies.QuickPresetsEndToEnd: hard-sphere and soft-rheology end to end"
 fi
+# The committed quick numbers: every file under tests/studies/data/quick/<study>/.
+same_numbers() {  # study
+  local ref="$src/tests/studies/data/quick/$1" files
+  files=$(cd "$ref" && find . -type f | sed 's|^\./||' | sort)
+  if msg=$($py "$src/tests/studies/quick_numbers.py" "$ref" "$work/$1" $files); then
+    ok "$1: the quick preset's numbers are the committed ones ($(echo $files))"
+  else
+    bad "$1: the quick preset's numbers changed (scripts/quick-reference.sh regenerates them for a deliberate change): $msg"
+  fi
+}
 grid_studies="hard-sphere finite-size"
 [ "$short" = 1 ] && grid_studies="hard-sphere"
 for study in $grid_studies; do
@@ -42,6 +58,7 @@ for study in $grid_studies; do
   for f in sweep.toml table.csv report.md "$study.h5" flow_curves.png runs/manifest.toml; do
     [ -s "$out/$f" ] && ok "$study: $f written" || bad "$study: $f missing"
   done
+  same_numbers "$study"
   grep -q "## Fits per N" "$out/report.md" && grep -q "## Verdicts" "$out/report.md" &&
     ok "$study: report has its sections" || bad "$study: report sections"
   # One code path: analyze on the collected table gives what the study got.
@@ -92,6 +109,7 @@ study_end_to_end() {  # study, files..., then "--" and the analyze arguments aft
   local status=$?
   if [ "$status" -le 1 ]; then ok "$study quick ran (exit $status)"; else
     bad "$study quick: exit $status: $(tail -3 "$study.err")"; fi
+  same_numbers "$study"
   while [ "$1" != "--" ]; do
     [ -s "$out/$1" ] && ok "$study: $1 written" || bad "$study: $1 missing"
     shift
