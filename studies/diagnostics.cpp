@@ -818,24 +818,33 @@ IntegratorSetting rkc_setting(double overlaps, double delta) {
   return s;
 }
 
+std::string state_point_scene(const StatePoint& p, const RunWindow& w) {
+  Scene scene = Scene::parse("", "<study scene>");
+  scene.set_section("system", toml::table{{"N", p.n},
+                                          {"phi", p.phi},
+                                          {"alpha", p.alpha},
+                                          {"seed", static_cast<std::int64_t>(p.seed)}});
+  scene.set_section("ensemble", p.constant_pressure ? toml::table{{"kind", "constant_pressure"},
+                                                                  {"pressure", p.pressure},
+                                                                  {"xi_V", p.xi_v}}
+                                                    : toml::table{{"kind", "constant_volume"}});
+  scene.set_section("shear", toml::table{{"rate", p.gdot}});
+  toml::table run{{"t_eq", w.t_eq},
+                  {"t_av", w.t_av},
+                  {"sample_every", w.sample_every},
+                  {"blocks", std::int64_t{w.blocks}}};
+  if (w.threads > 0)
+    run.insert("threads", std::int64_t{w.threads});
+  scene.set_section("run", std::move(run));
+  return scene.text();
+}
+
 StudyScene scene_toml(const StatePoint& p, const IntegratorSetting& setting, double t_eq,
                       double t_av, double sample_every, int blocks) {
   const double se = commensurate(sample_every, setting.dt);
   const double av = se * std::max(double(blocks), std::round(t_av / se));
   const double eq = se * std::round(t_eq / se);
-  std::string t = "[system]\nN = " + std::to_string(p.n) + "\nphi = " + toml_num(p.phi) +
-                  "\nalpha = " + toml_num(p.alpha) + "\nseed = " + std::to_string(p.seed) +
-                  "\n\n[ensemble]\n";
-  if (p.constant_pressure) {
-    t += "kind = \"constant_pressure\"\npressure = " + toml_num(p.pressure) +
-         "\nxi_V = " + toml_num(p.xi_v) + "\n";
-  } else {
-    t += "kind = \"constant_volume\"\n";
-  }
-  t += "\n[shear]\nrate = " + toml_num(p.gdot) + "\n";
-  t += "\n[run]\nt_eq = " + toml_num(eq) + "\nt_av = " + toml_num(av) +
-       "\nsample_every = " + toml_num(se) + "\nblocks = " + std::to_string(blocks) + "\n";
-  return StudyScene(t, setting.settings);
+  return StudyScene(state_point_scene(p, {eq, av, se, blocks}), setting.settings);
 }
 
 }  // namespace jamflow::studies

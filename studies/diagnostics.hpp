@@ -290,6 +290,17 @@ IntegratorSetting cvode_setting(double rtol, double atol, long max_steps = 0);
 // typical overlap (a length in units of a); `tolerance` holds `overlaps`.
 IntegratorSetting rkc_setting(double overlaps, double delta);
 
+// A run's window and sampling, as its scene's [run] section holds them.
+struct RunWindow {
+  double t_eq = 0.0, t_av = 0.0, sample_every = 1.0;
+  int blocks = 20;
+  int threads = 0;  // [run] threads; 0: not set (the scene's default)
+};
+// The scene of a state point and window, without [integrator] (a study hands that over typed):
+// the one place the studies turn a state point into a scene, from typed values (no text
+// assembled by hand; doubles stay exact), printed as Scene::text() prints scenes.
+std::string state_point_scene(const StatePoint& p, const RunWindow& w);
+
 // The scene for a state point, integrator and durations. sample_every is made commensurate
 // with the step (the exact dt the run uses), and t_eq, t_av whole multiples of it (t_av at
 // least `blocks` samples). Numbers are written at round-trip precision.

@@ -91,20 +91,16 @@ Preset preset_of(const std::string& name) {
 
 // The scene without [integrator] (Preset::integrator is handed over typed).
 std::string scene_toml(const Preset& p, bool constant_pressure, double phi, std::uint64_t seed) {
-  const double t_eq = constant_pressure ? p.t_eq : p.t_eq_nv;
-  std::ostringstream os;
-  os << "[system]\nN = " << p.n << "\nphi = " << fmt(phi) << "\nseed = " << seed << "\n";
-  os << "[ensemble]\n";
-  if (constant_pressure) {
-    os << "kind = \"constant_pressure\"\npressure = " << fmt(p.pressure)
-       << "\nxi_V = " << fmt(p.xi_v) << "\n";
-  } else {
-    os << "kind = \"constant_volume\"\n";
-  }
-  os << "[shear]\nrate = " << fmt(p.shear_rate) << "\n";
-  os << "[run]\nt_eq = " << fmt(t_eq) << "\nt_av = " << fmt(p.t_av)
-     << "\nsample_every = " << fmt(p.sample_every) << "\nblocks = 20\nthreads = 1\n";
-  return os.str();
+  StatePoint point;
+  point.n = p.n;
+  point.constant_pressure = constant_pressure;
+  point.pressure = p.pressure;
+  point.phi = phi;
+  point.xi_v = p.xi_v;
+  point.gdot = p.shear_rate;
+  point.seed = seed;
+  return state_point_scene(point,
+                           {constant_pressure ? p.t_eq : p.t_eq_nv, p.t_av, p.sample_every, 20, 1});
 }
 
 // A random state at phi with its overlaps relaxed at constant volume without shear (explicit
