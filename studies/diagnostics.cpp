@@ -774,9 +774,7 @@ std::string StatePoint::describe() const {
 
 IntegratorSetting euler_setting(double dt) {
   IntegratorSetting s;
-  s.family = "euler";
   s.label = "euler dt=" + short_num(dt);
-  s.dt = dt;
   s.settings = IntegratorSettings("euler").set("dt", dt);
   return s;
 }
@@ -784,10 +782,8 @@ IntegratorSetting euler_setting(double dt) {
 IntegratorSetting respa_setting(double dt, int n_inner, const std::string& inner,
                                 const std::string& scheme) {
   IntegratorSetting s;
-  s.family = "respa";
   s.label = "respa " + inner + "x" + std::to_string(n_inner) +
             (scheme == "euler" ? "" : " " + scheme) + " dt=" + short_num(dt);
-  s.dt = dt;
   s.settings = IntegratorSettings("respa")
                    .set("dt", dt)
                    .set("n_inner", n_inner)
@@ -798,7 +794,6 @@ IntegratorSetting respa_setting(double dt, int n_inner, const std::string& inner
 
 IntegratorSetting cvode_setting(double rtol, double atol, long max_steps) {
   IntegratorSetting s;
-  s.family = "cvode";
   s.label = "cvode rtol=" + short_num(rtol);
   s.tolerance = rtol;
   s.settings = IntegratorSettings("cvode").set("rtol", rtol);
@@ -811,7 +806,6 @@ IntegratorSetting cvode_setting(double rtol, double atol, long max_steps) {
 
 IntegratorSetting rkc_setting(double overlaps, double delta) {
   IntegratorSetting s;
-  s.family = "rkc";
   s.label = "rkc atol=" + short_num(overlaps) + " delta";
   s.tolerance = overlaps;
   s.settings = IntegratorSettings("rkc").set("atol", overlaps * delta);
@@ -841,7 +835,7 @@ std::string state_point_scene(const StatePoint& p, const RunWindow& w) {
 
 StudyScene scene_toml(const StatePoint& p, const IntegratorSetting& setting, double t_eq,
                       double t_av, double sample_every, int blocks) {
-  const double se = commensurate(sample_every, setting.dt);
+  const double se = commensurate(sample_every, setting.dt());
   const double av = se * std::max(double(blocks), std::round(t_av / se));
   const double eq = se * std::round(t_eq / se);
   return StudyScene(state_point_scene(p, {eq, av, se, blocks}), setting.settings);

@@ -266,11 +266,13 @@ struct StatePoint {
 // One integrator configuration: its typed [integrator] settings and a label. `dt` is the same
 // double as settings' "dt", which the run uses unchanged.
 struct IntegratorSetting {
-  std::string family;      // euler | respa | cvode | rkc
   std::string label;       // "euler dt=0.5", "respa particles x4 dt=1", "cvode rtol=1e-5"
-  double dt = 0.0;         // nominal step (0: adaptive)
   double tolerance = 0.0;  // cvode rtol; rkc atol in units of the typical overlap
   IntegratorSettings settings;
+  // The kind (euler | respa | cvode | rkc) and the nominal step (0: adaptive), read from the
+  // settings: one copy of each.
+  const std::string& family() const { return settings.kind; }
+  double dt() const { return settings.number("dt").value_or(0.0); }
 };
 IntegratorSetting euler_setting(double dt);
 // A RESPA splitting the stability and timestep studies scan: the inner level, its sub-steps and

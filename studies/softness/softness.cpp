@@ -264,9 +264,9 @@ std::vector<IntegratorSetting> settings_for(const SoftnessPreset& p, double alph
 
 // The same setting at another overlap (CVODE's and RKC's atol follow delta).
 IntegratorSetting setting_at(const SoftnessPreset& p, const IntegratorSetting& s, double delta) {
-  if (s.family == "cvode")
+  if (s.family() == "cvode")
     return cvode_setting(s.tolerance, s.tolerance * delta, p.cvode_max_steps);
-  if (s.family == "rkc")
+  if (s.family() == "rkc")
     return rkc_setting(s.tolerance, delta);
   return s;
 }
@@ -400,7 +400,7 @@ void analyse_scan(Scan& s, const SoftnessPreset& p) {
     }
   }
   for (std::size_t k = 0; k < m; ++k) {
-    if (s.settings[k].family == "euler" && usable_in_scan(s.runs[k])) {
+    if (s.settings[k].family() == "euler" && usable_in_scan(s.runs[k])) {
       s.reference = int(k);
       break;
     }
@@ -436,10 +436,10 @@ void analyse_scan(Scan& s, const SoftnessPreset& p) {
   }
   // Euler's largest step: the steps from the reference up to the first one that is not
   // stable and accurate.
-  for (std::size_t k = std::size_t(s.reference); k < m && s.settings[k].family == "euler"; ++k) {
+  for (std::size_t k = std::size_t(s.reference); k < m && s.settings[k].family() == "euler"; ++k) {
     if (!s.accurate[k])
       break;
-    s.euler_dt_max = s.settings[k].dt;
+    s.euler_dt_max = s.settings[k].dt();
   }
 }
 
@@ -554,9 +554,9 @@ double model_seconds(const SoftnessPreset& p, double alpha, const IntegratorSett
                      double pressure, double t, bool budget) {
   const double n = double(p.n);
   double sec = 0.0;
-  if (s.family == "cvode") {
+  if (s.family() == "cvode") {
     sec = n * t * model_cvode_seconds(alpha, pressure);
-  } else if (s.family == "rkc") {
+  } else if (s.family() == "rkc") {
     // Adaptive: about 1 force pass per tau_0 (0.4-2.8 measured at N = 1000, alpha_r = 2,
     // atol = 0.01-1 delta, benchmarks/README.md), each 1.2x an Euler pass.
     double steps = n * t * 1.0;
@@ -572,7 +572,7 @@ double model_seconds(const SoftnessPreset& p, double alpha, const IntegratorSett
       steps = std::min(steps, p.budget_particle_steps);
     sec = steps * model_seconds_per_step(alpha);
   }
-  if (budget && p.budget_particle_steps > 0.0 && s.family == "cvode") {
+  if (budget && p.budget_particle_steps > 0.0 && s.family() == "cvode") {
     const double per_evaluation = alpha == 2.0 ? 0.6e-6 : 0.9e-6;
     sec = std::min(sec, p.budget_particle_steps * per_evaluation);
   }
@@ -933,7 +933,7 @@ int run_softness_preset(const SoftnessPreset& preset, const StudyOptions& option
       w.attr(grp, "alpha", ar.alpha);
       w.attr(grp, "euler_dt_max", ar.euler_dt_max);
       w.attr(grp, "integrator", ar.integrator.label);
-      w.attr(grp, "integrator_family", ar.integrator.family);
+      w.attr(grp, "integrator_family", ar.integrator.family());
       w.attr(grp, "integrator_verified", static_cast<std::int64_t>(ar.chosen_verified));
       if (ar.ends.empty())
         continue;
@@ -951,8 +951,8 @@ int run_softness_preset(const SoftnessPreset& preset, const StudyOptions& option
           std::snprintf(rg, sizeof rg, "/runs/r%03zu", k);
           write_diagnosed(w, sg + rg, s.runs[k], false);
           w.attr(sg + rg, "setting", s.settings[k].label);
-          w.attr(sg + rg, "family", s.settings[k].family);
-          w.attr(sg + rg, "step", s.settings[k].dt);
+          w.attr(sg + rg, "family", s.settings[k].family());
+          w.attr(sg + rg, "step", s.settings[k].dt());
           w.attr(sg + rg, "scan_verdict", s.verdict[k]);
           w.attr(sg + rg, "accurate", static_cast<std::int64_t>(s.accurate[k]));
           w.attr(sg + rg, "mu_rel_err", s.mu_err[k]);

@@ -238,7 +238,7 @@ std::string case_table(const CaseResult& cr) {
 std::string largest_stable_cell(const CaseResult& cr) {
   std::string cell = std::isfinite(cr.largest_stable_dt) ? short_num(cr.largest_stable_dt) : "";
   if (!std::isfinite(cr.largest_held_dt))
-    return cell.empty() ? "< " + short_num(cr.settings.front().dt) : cell;
+    return cell.empty() ? "< " + short_num(cr.settings.front().dt()) : cell;
   if (cr.largest_held_dt == cr.largest_stable_dt && cr.held_left_out == 0)
     return cell;
   const std::string held = "no oscillation up to " + short_num(cr.largest_held_dt) + ", but " +
@@ -250,8 +250,8 @@ void summarize_case(CaseResult& cr) {
   // Euler rows only, in increasing dt: the largest dt below which every run is stable.
   std::vector<std::pair<double, const DiagnosedRun*>> euler;
   for (std::size_t k = 0; k < cr.runs.size(); ++k) {
-    if (cr.settings[k].family == "euler")
-      euler.emplace_back(cr.settings[k].dt, &cr.runs[k]);
+    if (cr.settings[k].family() == "euler")
+      euler.emplace_back(cr.settings[k].dt(), &cr.runs[k]);
     if (cr.runs[k].cls.laned)
       cr.any_lanes = true;
   }
@@ -534,9 +534,9 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
         std::snprintf(rg, sizeof rg, "/runs/r%03zu", k);
         const std::string run_group = grp + rg;
         write_diagnosed(w, run_group, cr.runs[k], true);
-        w.attr(run_group, "family", cr.settings[k].family);
+        w.attr(run_group, "family", cr.settings[k].family());
         w.attr(run_group, "setting", cr.settings[k].label);
-        w.attr(run_group, "step", cr.settings[k].dt);
+        w.attr(run_group, "step", cr.settings[k].dt());
         w.attr(run_group, "tolerance", cr.settings[k].tolerance);
       }
     }
@@ -609,8 +609,8 @@ int run_stability_preset(const StabilityPreset& preset, const StudyOptions& opti
       md += "Euler's stable range is not established: no run oscillates up to dt = " +
             short_num(cr.largest_held_dt) + ", but those runs are left out by their verdicts";
     else
-      md +=
-          "Euler unstable at every scanned dt (smallest " + short_num(cr.settings.front().dt) + ")";
+      md += "Euler unstable at every scanned dt (smallest " + short_num(cr.settings.front().dt()) +
+            ")";
     if (std::isfinite(cr.largest_stable_dt) && cr.held_left_out > 0)
       md += " (" + std::to_string(cr.held_left_out) +
             " runs that do not oscillate are left out by their verdicts; the largest such dt is " +

@@ -159,9 +159,9 @@ struct PointResult {
 // run-to-run scatter (chaotic trajectories decorrelate; slow modes such as phi at constant
 // pressure outlast the blocks).
 bool fine_setting(const IntegratorSetting& s) {
-  return (s.family == "euler" && s.dt <= 0.1 + 1e-12) ||
-         (s.family == "cvode" && s.tolerance <= 1e-5 * (1 + 1e-9)) ||
-         (s.family == "rkc" && s.tolerance <= 0.01 * (1 + 1e-9));
+  return (s.family() == "euler" && s.dt() <= 0.1 + 1e-12) ||
+         (s.family() == "cvode" && s.tolerance <= 1e-5 * (1 + 1e-9)) ||
+         (s.family() == "rkc" && s.tolerance <= 0.01 * (1 + 1e-9));
 }
 
 double duration(double strain, double gdot, double t_min) {
@@ -171,7 +171,7 @@ double duration(double strain, double gdot, double t_min) {
 std::string family_label(const IntegratorSetting& s) {
   const std::string l = s.label;
   const auto cut = l.rfind(' ');
-  return s.family == "cvode" || s.family == "rkc" ? s.family : l.substr(0, cut);
+  return s.family() == "cvode" || s.family() == "rkc" ? s.family() : l.substr(0, cut);
 }
 
 void compute_errors(PointResult& pr) {
@@ -179,8 +179,8 @@ void compute_errors(PointResult& pr) {
   // Reference: Euler at the smallest dt, if it is stable.
   double best = std::numeric_limits<double>::infinity();
   for (std::size_t k = 0; k < pr.runs.size(); ++k) {
-    if (pr.settings[k].family == "euler" && pr.settings[k].dt < best) {
-      best = pr.settings[k].dt;
+    if (pr.settings[k].family() == "euler" && pr.settings[k].dt() < best) {
+      best = pr.settings[k].dt();
       pr.reference = static_cast<int>(k);
     }
   }
@@ -359,7 +359,7 @@ std::string claim_cell(const PointResult& pr, int k) {
 
 int find_setting(const PointResult& pr, const std::string& family_prefix, double dt) {
   for (std::size_t k = 0; k < pr.settings.size(); ++k) {
-    if (family_label(pr.settings[k]) == family_prefix && std::abs(pr.settings[k].dt - dt) < 1e-12)
+    if (family_label(pr.settings[k]) == family_prefix && std::abs(pr.settings[k].dt() - dt) < 1e-12)
       return int(k);
   }
   return -1;
@@ -368,8 +368,8 @@ int find_setting(const PointResult& pr, const std::string& family_prefix, double
 double first_unstable_euler(const PointResult& pr) {
   std::vector<std::pair<double, Verdict>> e;
   for (std::size_t k = 0; k < pr.runs.size(); ++k)
-    if (pr.settings[k].family == "euler")
-      e.emplace_back(pr.settings[k].dt, pr.runs[k].cls.verdict);
+    if (pr.settings[k].family() == "euler")
+      e.emplace_back(pr.settings[k].dt(), pr.runs[k].cls.verdict);
   std::sort(e.begin(), e.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   for (const auto& [dt, v] : e)
     if (v == Verdict::kOscillating || v == Verdict::kDiverged)
@@ -510,10 +510,10 @@ int run_timestep_preset(const TimestepPreset& preset, const StudyOptions& option
         std::snprintf(rg, sizeof rg, "/runs/r%03zu", k);
         const std::string run_group = grp + rg;
         write_diagnosed(w, run_group, pr.runs[k], true);
-        w.attr(run_group, "family", pr.settings[k].family);
+        w.attr(run_group, "family", pr.settings[k].family());
         w.attr(run_group, "curve", family_label(pr.settings[k]));
         w.attr(run_group, "setting", pr.settings[k].label);
-        w.attr(run_group, "step", pr.settings[k].dt);
+        w.attr(run_group, "step", pr.settings[k].dt());
         w.attr(run_group, "tolerance", pr.settings[k].tolerance);
         const RunErrors& e = pr.errors[k];
         w.attr(run_group, "err_sigma_xy", e.sigma_err);

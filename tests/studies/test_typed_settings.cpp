@@ -25,7 +25,9 @@ TEST(StudyTypedSettings, EulerAtOneThirdOfAPointOneRunsAtExactlyThatStep) {
   const IntegratorSetting setting = euler_setting(dt);
   // The label's step and the typed settings the driver receives are the same double.
   ASSERT_EQ(setting.settings.kind, "euler");
-  EXPECT_EQ(setting.settings.number("dt"), std::optional<double>(setting.dt));
+  EXPECT_EQ(setting.settings.number("dt"), std::optional<double>(dt));
+  EXPECT_EQ(setting.dt(), dt);
+  EXPECT_EQ(setting.family(), "euler");
   const StudyScene scene = scene_toml(p, setting, 0.0, 10.0, 0.5);
   ASSERT_TRUE(scene.integrator.has_value());
   const RunSpec spec = scene.spec({"run.threads=1"});
