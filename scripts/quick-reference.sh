@@ -26,7 +26,18 @@ for study in hard-sphere finite-size soft-rheology olsson-teitel; do
   for f in ${files[$study]}; do
     [ -s "$work/$study/$f" ] || { echo "quick-reference: $study wrote no $f" >&2; exit 1; }
     mkdir -p "$(dirname "$ref/$f")"
-    cp "$work/$study/$f" "$ref/$f"
+    /usr/bin/python3 "$root/tests/studies/quick_numbers.py" --store "$work/$study/$f" "$ref/$f"
   done
+done
+# The studies in stages: their HDF5 file, as a digest of its numbers (quick_numbers.py).
+for study in timestep stability softness ensemble; do
+  echo "quick-reference: $study"
+  "$jamflow" study "$study" --preset quick --out "$work/$study" -j 2 --no-plots \
+    > "$work/$study.log" 2>&1 || { echo "quick-reference: $study failed" >&2; exit 1; }
+  ref="$root/tests/studies/data/quick/$study"
+  rm -rf "$ref"
+  mkdir -p "$ref"
+  /usr/bin/python3 "$root/tests/studies/quick_numbers.py" --digest "$work/$study/$study.h5" \
+    "$ref/$study.h5.digest.json"
 done
 echo "quick-reference: written under tests/studies/data/quick/"
