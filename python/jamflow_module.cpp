@@ -41,6 +41,7 @@
 #include "lib/config.hpp"
 #include "lib/data_files.hpp"
 #include "lib/error.hpp"
+#include "lib/table.hpp"
 #include "sweep/collect.hpp"
 #include "sweep/engine.hpp"
 #include "sweep/plan.hpp"
@@ -1112,6 +1113,78 @@ class _Named(dict):
         "before anything runs. Ctrl-C stops the points as `jamflow sweep` does.");
   m.def("sweep_points", &sweep_points, py::arg("path"),
         "The points of a sweep file (checked), without running them.");
+  m.def(
+      "_exe", [] { return jamflow_exe_for_module(); },
+      "The jamflow binary this module runs points and comparisons with.");
+  m.def(
+      "_read_table",
+      [](py::object path) {
+        const auto t = jamflow::read_csv_table(
+            py::module_::import("os").attr("fspath")(path).cast<std::string>());
+        return table_columns(t.header, t.rows);
+      },
+      "A CSV table as {column: numpy array} (the one table reader, lib/table.hpp).");
+  // `jamflow compare` from Python: the command line's own run (its checks, resume, Ctrl-C),
+  // with its progress relayed to sys.stderr so that Jupyter shows it, and its table returned.
+  for (const char* name : {"_exe", "_read_table", "ConfigError", "IntegrationError"})
+    scope[name] = m.attr(name);
+  py::exec(R"(
+def compare(source, out=None, *, jobs=0, progress=False, plots=True, dry_run=False):
+    """`jamflow compare SOURCE`: compare methods on a scene (docs/guide/compare.md).
+
+    source: a compare file (TOML). out: the output folder (default: <stem>.compare beside the
+    file). jobs: runs at once (0: the cores). progress: the command's progress lines, relayed
+    to sys.stderr. plots: write the PNG plots. dry_run: count the runs and their CPU-hours,
+    run nothing, and return None.
+
+    Returns the comparison's table (DIR/table.csv: one row per setting; the reference, the
+    paired errors with their floor, the cost, the verdicts, the rank) as {column: numpy array},
+    as jamflow.sweep returns its table; the report is DIR/report.md. A rerun continues a
+    comparison that stopped and redoes no finished run. A bad compare file raises ConfigError
+    (the command's one-line error) before anything runs."""
+    import os, subprocess, sys
+    path = os.fspath(source)
+    if out is None:
+        stem = os.path.splitext(os.path.basename(path))[0]
+        out = os.path.join(os.path.dirname(path), stem + ".compare")
+    out = os.fspath(out)
+    args = [_exe(), "compare", path, "--out", out]
+    if jobs:
+        args += ["-j", str(int(jobs))]
+    if not plots:
+        args.append("--no-plots")
+    if dry_run:
+        args.append("--dry-run")
+    elif not progress:
+        args.append("--quiet")
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    lines = []
+    try:
+        for line in proc.stderr:
+            lines.append(line)
+            if progress or dry_run:
+                sys.stderr.write(line)
+                sys.stderr.flush()
+        stdout = proc.stdout.read()
+        status = proc.wait()
+    except KeyboardInterrupt:
+        proc.wait()  # the command checkpoints its runs on the same Ctrl-C
+        raise
+    if dry_run and stdout:
+        sys.stdout.write(stdout)
+    errors = [l.strip() for l in lines if "error" in l.lower()]
+    message = errors[-1] if errors else (lines[-1].strip() if lines else "exit %d" % status)
+    message = message.split("jamflow: error: ", 1)[-1]
+    if status == 2:
+        raise ConfigError(message)
+    if status != 0:
+        raise IntegrationError("jamflow compare %s: exit %d: %s" % (path, status, message))
+    if dry_run:
+        return None
+    return _read_table(os.path.join(out, "table.csv"))
+)",
+           scope);
+  m.attr("compare") = scope["compare"];
   m.def("analyze", &analyze, py::arg("kind"), py::arg("data"), py::arg("out") = py::none(),
         py::kw_only(), py::arg("plots") = false,
         "`jamflow analyze KIND DATA...`: kind is 'hard-sphere', 'soft', 'olsson-teitel' or "

@@ -329,6 +329,67 @@ blocks = 4
 """
 
 
+COMPARE = """
+reference = "euler-0.05"
+replicas = 2
+observables = ["sigma_xy", "pressure"]
+[base.system]
+N = 64
+phi = 0.60
+seed = 1
+[base.ensemble]
+kind = "constant_volume"
+[base.shear]
+rate = 1e-2
+[base.integrator]
+kind = "euler"
+dt = 0.05
+[base.run]
+t_eq = 0.0
+t_av = 100.0
+[prepare]
+t = 100.0
+[run]
+t_eq = 20.0
+t_av = 60.0
+sample_every = 1.0
+[[setting]]
+label = "euler-0.05"
+[[setting]]
+label = "rkc"
+integrator = { kind = "rkc" }
+[[setting]]
+label = "euler-1"
+integrator.dt = 1.0
+"""
+
+
+def test_compare_runs_the_command_and_returns_its_table(tmp_path):
+    path = tmp_path / "small.toml"
+    path.write_text(COMPARE)
+    table = jamflow.compare(path, jobs=2, plots=False)
+    # One row per setting, in the file's order; Euler at dt = 1 (past its stability limit)
+    # is flagged unstable and not recommended.
+    assert list(table["setting"]) == ["euler-0.05", "rkc", "euler-1"]
+    stable = dict(zip(table["setting"], table["stable"]))
+    assert stable["euler-1"] == 0 and stable["euler-0.05"] == 1
+    assert table["recommended"][list(table["setting"]).index("euler-1")] == 0
+    out = tmp_path / "small.compare"
+    assert (out / "report.md").is_file() and (out / "compare.h5").is_file()
+    # A rerun reads the finished runs back: the same table, no run redone.
+    runs = sorted((out / "settings").rglob("r0.h5"))
+    stamps = [r.stat().st_mtime_ns for r in runs]
+    again = jamflow.compare(path, plots=False)
+    assert list(again["setting"]) == list(table["setting"])
+    assert [r.stat().st_mtime_ns for r in runs] == stamps
+    # A bad compare file is the command's one-line error, before anything runs.
+    bad = tmp_path / "bad.toml"
+    bad.write_text(COMPARE.replace('reference = "euler-0.05"', 'reference = "nope"'))
+    with pytest.raises(jamflow.ConfigError, match="reference"):
+        jamflow.compare(bad, out=tmp_path / "bad.out")
+    assert not (tmp_path / "bad.out").exists()
+
+
 def test_sweep_returns_the_collected_table(tmp_path):
     path = tmp_path / "two.toml"
     path.write_text(SWEEP)
