@@ -9,6 +9,8 @@
 #  - --dry-run counts the stages; a SIGTERM stops the sweep, and the same command again does
 #    not redo the runs that had finished.
 #  - the example examples/compare_rkc_euler.toml is a valid compare file (its dry run).
+#  - on the sweep engine's other runners: --slurm writes the next stage's job array, and under
+#    mpirun -n 2 the comparison gives the local one's numbers.
 # usage: compare_test.sh JAMFLOW_BINARY SOURCE_DIR
 set -uo pipefail
 jamflow="$(realpath "$1")"
@@ -194,6 +196,38 @@ if [ "$rc" -eq 0 ] && [ "$same" -eq 1 ] && [ "$(tail -n +2 resume/table.csv | wc
   ok "rerun finishes (exit 0, 5 rows) without redoing the ${#done_files[@]} finished runs"
 else
   bad "rerun: exit $rc, finished runs untouched: $same; $(tail -3 resume2.err)"
+fi
+
+# ---- The sweep engine's other runners: a Slurm job array for the next stage, and MPI ranks.
+"$jamflow" compare small.toml --slurm --out slurm.out > slurm.txt 2>&1
+rc=$?
+if [ "$rc" -eq 0 ] && grep -q "#SBATCH --array" slurm.out/prepare/runs/sweep.sbatch 2>/dev/null &&
+  [ -z "$(find slurm.out -name '*.h5*')" ]; then
+  ok "--slurm writes the preparation's job array and runs nothing"
+else
+  bad "--slurm: exit $rc, $(cat slurm.txt | tail -3)"
+fi
+if command -v mpirun >/dev/null && "$jamflow" --help | grep -q mpirun; then
+  export OMPI_MCA_rmaps_base_oversubscribe=1
+  mpi_env=()
+  [ -n "${ASAN_OPTIONS:-}" ] && mpi_env=(-x "ASAN_OPTIONS=${ASAN_OPTIONS}:detect_leaks=0")
+  # A launch that ran a stage before the last ends there; the same command goes on.
+  for launch in 1 2; do
+    mpirun --allow-run-as-root --oversubscribe "${mpi_env[@]}" -n 2 "$jamflow" compare small.toml \
+      --out mpi.out -q > mpi$launch.txt 2>&1 || true
+  done
+  # The same runs as the local comparison: the same numbers (the cost and what it chooses aside).
+  if /usr/bin/python3 - full/table.csv mpi.out/table.csv <<'PY'
+import csv, sys
+def rows(p):
+    return [{k: v for k, v in r.items() if not k.startswith("cpu_") and k != "recommended"}
+            for r in csv.DictReader(open(p))]
+sys.exit(0 if rows(sys.argv[1]) == rows(sys.argv[2]) else 1)
+PY
+  then ok "under mpirun -n 2 the comparison gives the local one's numbers"
+  else bad "mpirun compare: $(tail -3 mpi2.txt)"; fi
+else
+  echo "skip: no MPI launcher"
 fi
 
 echo "$passed passed, $failed failed"
