@@ -11,20 +11,9 @@
 #include "lib/config.hpp"
 #include "lib/error.hpp"
 #include "studies/common.hpp"
+#include "studies/point_plan.hpp"
 
 namespace jamflow::studies {
-
-namespace {
-
-// Three significant digits, as the double nearest to that decimal (so 9e-05, not
-// 8.999999999999999e-05): run lengths and rates that read well in names and files.
-double round3(double x) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g", x);
-  return std::strtod(buf, nullptr);
-}
-
-}  // namespace
 
 GridPreset grid_preset(const std::string& preset) {
   GridPreset g;
@@ -103,59 +92,34 @@ PointIntegrator integrator_for(std::int64_t n, double pressure) {
 }
 
 std::string pressure_sweep_text(const GridPreset& g) {
-  toml::array n_axis, phi_axis, p_axis, rate_axis, teq_axis, tav_axis, sample_axis, integ_axis;
+  PointPlan plan;
+  plan.replicas = g.replicas;
+  plan.base_phi = 0.6;
+  plan.constant_pressure = true;
   for (const auto n : g.sizes) {
     for (const double p : g.pressures) {
       for (const double j : g.js) {
         const double gdot = round3(j * p);  // 9e-05, not 8.999999999999999e-05
         if (gdot < g.gdot_min)
           continue;
-        const double t_eq =
-            round3(std::max({g.strain_eq / gdot, g.relax_pressure / p, g.t_eq_min}));
-        const double t_av =
-            g.t_av_is_t_eq ? t_eq : round3(std::max(g.strain_av / gdot, g.t_av_min));
-        n_axis.push_back(n);
+        PlannedPoint pt;
+        pt.n = n;
         // The start: the seed's hard-sphere law, 0.01 lower and at most 0.63.
-        phi_axis.push_back(std::round(phi_start(j, n, 0.01, 0.63) * 1e4) / 1e4);
-        p_axis.push_back(p);
-        rate_axis.push_back(gdot);
-        teq_axis.push_back(t_eq);
-        tav_axis.push_back(t_av);
-        sample_axis.push_back(round3(t_av / g.samples));
-        integ_axis.push_back(integrator_for(n, p).settings.table());
+        pt.phi = std::round(phi_start(j, n, 0.01, 0.63) * 1e4) / 1e4;
+        pt.pressure = p;
+        pt.shear_rate = gdot;
+        pt.t_eq = round3(std::max({g.strain_eq / gdot, g.relax_pressure / p, g.t_eq_min}));
+        pt.t_av = g.t_av_is_t_eq ? pt.t_eq : round3(std::max(g.strain_av / gdot, g.t_av_min));
+        pt.sample_every = round3(pt.t_av / g.samples);
+        pt.integrator = integrator_for(n, p).settings;
+        plan.points.push_back(std::move(pt));
       }
     }
   }
-  toml::table zip;
-  zip.insert("system.N", n_axis);
-  zip.insert("system.phi", phi_axis);
-  zip.insert("ensemble.pressure", p_axis);
-  zip.insert("shear.rate", rate_axis);
-  zip.insert("run.t_eq", teq_axis);
-  zip.insert("run.t_av", tav_axis);
-  zip.insert("run.sample_every", sample_axis);
-  zip.insert("integrator", integ_axis);
-  // The base scene: what every point shares (the zip replaces the rest).
-  toml::table scene{
-      {"system", toml::table{{"N", 1000}, {"phi", 0.6}, {"alpha", 2.0}, {"seed", 1}}},
-      {"ensemble", toml::table{{"kind", "constant_pressure"}, {"pressure", 1e-3}, {"xi_V", 1e-4}}},
-      {"shear", toml::table{{"rate", 1e-4}}},
-      {"integrator", toml::table{{"kind", "respa"}, {"dt", 1.0}}},
-      {"run", toml::table{{"t_eq", 1000.0},
-                          {"t_av", 3000.0},
-                          {"sample_every", 3.0},
-                          {"round_sample_every", true},
-                          {"blocks", 20}}},
-      {"output", toml::table{{"checkpoint_every", 300.0}}}};
-  toml::table sweep{{"replicas", g.replicas},
-                    {"names_from", toml::array{"system.N", "ensemble.pressure", "shear.rate"}},
-                    {"zip", std::move(zip)}};
-  toml::table root{{"sweep", std::move(sweep)}, {"scene", std::move(scene)}};
-  std::ostringstream os;
-  os << "# The " << g.study << " study's '" << g.name << "' points (" << g.why
-     << ").\n# Written by `jamflow study`; run by it, or by `jamflow sweep` like any sweep.\n"
-     << toml_text(root) << "\n";
-  return os.str();
+  plan.header = "# The " + g.study + " study's '" + g.name + "' points (" + g.why +
+                ").\n# Written by `jamflow study`; run by it, or by `jamflow sweep` like any "
+                "sweep.\n";
+  return sweep_text(plan);
 }
 
 }  // namespace jamflow::studies
