@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <sstream>
@@ -21,6 +22,8 @@
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "lib/statistics.hpp"
+#include "lib/text_file.hpp"
+#include "lib/xyz.hpp"
 #include "studies/common.hpp"
 #include "studies/diagnostics.hpp"
 #include "sweep/mpi.hpp"
@@ -343,7 +346,16 @@ ComparePlan parse_compare(const std::string& text, const std::string& source,
     for (const auto& other : plan.settings)
       if (other.label == s.label)
         throw ConfigError(at + ": label \"" + s.label + "\" given twice; allowed unique labels");
-    s.overrides = read_overrides(t, where + "[[setting]] '" + s.label + "'", {"label"}, true);
+    s.overrides =
+        read_overrides(t, where + "[[setting]] '" + s.label + "'", {"label", "start"}, true);
+    if (const toml::node* st = t.get("start")) {
+      const auto v = st->value<std::string>();
+      if (!v || (*v != "final" && *v != "mean_phi"))
+        throw ConfigError(where + "[[setting]] '" + s.label + "': start = " + show(*st) +
+                          "; allowed \"final\" (the prepared state as it ended) or "
+                          "\"mean_phi\" (dilated to the preparation's mean phi)");
+      s.start_mean_phi = *v == "mean_phi";
+    }
     s.n = base_n;
     if (const toml::table* sys = s.overrides.get_as<toml::table>("system"))
       if (const toml::node* n = sys->get("N"); n && n->is_integer())
@@ -365,6 +377,20 @@ ComparePlan parse_compare(const std::string& text, const std::string& source,
     throw ConfigError(where + "reference = " + (ref ? show(*ref) : "missing") +
                       "; allowed the label of a setting: " + join(labels));
   plan.reference = static_cast<std::size_t>(it - labels.begin());
+
+  for (const auto& s : plan.settings) {
+    if (!s.start_mean_phi)
+      continue;
+    if (!plan.init.empty())
+      throw ConfigError(where + "[[setting]] '" + s.label +
+                        "': start = \"mean_phi\" with [prepare] init; allowed with a "
+                        "preparation run ([prepare] t), whose mean phi it takes");
+    const auto idx = static_cast<std::size_t>(&s - plan.settings.data());
+    if (plan.setting_scene(idx).section("ensemble").text("kind", "") != "constant_volume")
+      throw ConfigError(where + "[[setting]] '" + s.label +
+                        "': start = \"mean_phi\" at constant pressure; allowed for a "
+                        "constant-volume setting (the piston sets phi otherwise)");
+  }
 
   // Every scene through the checks of `jamflow run`, before anything runs.
   for (std::size_t s = 0; s < plan.settings.size(); ++s) {
@@ -680,6 +706,11 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
                   " + k, one per N), so differences are paired "
                   "replica by replica.\n\n"
             : "Every setting continues from `" + plan.init + "`.\n\n";
+  for (const auto& s : plan.settings)
+    if (s.start_mean_phi)
+      md += "`" + s.label +
+            "` (constant volume) starts from each prepared state dilated affinely to the "
+            "preparation's mean phi over its window (start = \"mean_phi\").\n\n";
   // A preparation that still drifts at its end leaves the rest of the transient to the
   // settings' t_eq; one that did not finish leaves its replica out.
   for (const DiagnosedRun& p : preps) {
@@ -857,7 +888,7 @@ int run_compare(const ComparePlan& plan, const StudyOptions& options) {
   const std::size_t n_set = plan.settings.size();
   const auto k_rep = static_cast<std::size_t>(plan.replicas);
   // Stage 1: one preparation per N and replica (seed + k), unless an init file starts them all.
-  std::map<std::pair<std::int64_t, std::size_t>, std::string> start;
+  std::map<std::pair<std::int64_t, std::size_t>, std::string> start, mean_phi_start;
   std::vector<DiagnosedRun> preps;
   if (plan.init.empty()) {
     std::vector<RunRequest> requests;
@@ -877,12 +908,38 @@ int run_compare(const ComparePlan& plan, const StudyOptions& options) {
     }
     if (const auto status = run_stage("compare", "prepare", requests, options, preps, false))
       return *status;
-    for (std::size_t q = 0; q < preps.size(); ++q)
-      if (preps[q].result.status.is_complete() && !preps[q].final_xyz.empty())
+    for (std::size_t q = 0; q < preps.size(); ++q) {
+      if (preps[q].result.status.is_complete() && !preps[q].final_xyz.empty()) {
         start[keys[q]] = preps[q].final_xyz;
-      else if (!options.quiet)
+        // The same state dilated to the preparation's mean phi, for start = "mean_phi".
+        if (preps[q].final_xyz == kCountedStart) {
+          mean_phi_start[keys[q]] = kCountedStart;
+        } else if (std::any_of(plan.settings.begin(), plan.settings.end(),
+                               [&](const CompareSetting& s) {
+                                 return s.start_mean_phi && s.n == keys[q].first;
+                               })) {
+          State st = read_xyz(preps[q].final_xyz);
+          st.box.set_volume(st.particle_volume() / preps[q].value("phi"));
+          st.time = 0.0;
+          const std::string dir = options.out_dir + "/prepare/mean_phi";
+          ensure_dir(dir);
+          const std::string file = dir + "/" + preps[q].label + ".xyz";
+          // Written whole under a unique name and renamed (MPI ranks may all get here), and
+          // not rewritten when a rerun finds it as it would write it.
+          std::ostringstream text;
+          write_xyz(text, st);
+          std::ifstream old(file, std::ios::binary);
+          const std::string before((std::istreambuf_iterator<char>(old)),
+                                   std::istreambuf_iterator<char>());
+          if (!old || before != text.str())
+            write_text_atomically(file, text.str());
+          mean_phi_start[keys[q]] = file;
+        }
+      } else if (!options.quiet) {
         std::fprintf(stderr, "compare: preparation %s did not finish: %s\n", preps[q].label.c_str(),
                      preps[q].verdict_text().c_str());
+      }
+    }
   } else {
     for (const auto& s : plan.settings)
       start[{s.n, 0}] = plan.init;
@@ -893,8 +950,9 @@ int run_compare(const ComparePlan& plan, const StudyOptions& options) {
   std::vector<std::pair<std::size_t, std::size_t>> index;
   for (std::size_t s = 0; s < n_set; ++s) {
     for (std::size_t k = 0; k < k_rep; ++k) {
-      const auto it = start.find({plan.settings[s].n, k});
-      if (it == start.end())
+      const auto& starts = plan.settings[s].start_mean_phi ? mean_phi_start : start;
+      const auto it = starts.find({plan.settings[s].n, k});
+      if (it == starts.end())
         continue;  // its preparation failed: reported above, and the setting did not run
       RunRequest r;
       r.label = plan.settings[s].label + "_r" + std::to_string(k);

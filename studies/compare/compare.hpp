@@ -25,6 +25,10 @@ struct CompareSetting {
   std::string label;
   toml::table overrides;  // section -> table of keys, applied to the base scene
   std::int64_t n = 0;     // particles (the base scene's N unless the setting sets system.N)
+  // start = "mean_phi": a constant-volume setting starts from its preparation's final state
+  // dilated affinely to the preparation's mean phi over its window (not to the last frame's
+  // phi, a fluctuation away from it), as an ensemble comparison at one state point needs.
+  bool start_mean_phi = false;
 };
 
 struct ComparePlan {

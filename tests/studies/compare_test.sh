@@ -9,6 +9,8 @@
 #  - --dry-run counts the stages; a SIGTERM stops the sweep, and the same command again does
 #    not redo the runs that had finished.
 #  - the example examples/compare_rkc_euler.toml is a valid compare file (its dry run).
+#  - start = "mean_phi": a constant-volume setting runs at its preparation's mean phi; bad start
+#    values and mean_phi at constant pressure are one-line errors.
 #  - on the sweep engine's other runners: --slurm writes the next stage's job array, and under
 #    mpirun -n 2 the comparison gives the local one's numbers.
 # usage: compare_test.sh JAMFLOW_BINARY SOURCE_DIR
@@ -197,6 +199,65 @@ if [ "$rc" -eq 0 ] && [ "$same" -eq 1 ] && [ "$(tail -n +2 resume/table.csv | wc
 else
   bad "rerun: exit $rc, finished runs untouched: $same; $(tail -3 resume2.err)"
 fi
+
+# ---- An ensemble comparison: constant volume started at the preparation's mean phi.
+cat > ens.toml <<'TOML'
+reference = "np"
+replicas = 2
+observables = ["sigma_xy", "phi"]
+[base.system]
+N = 64
+phi = 0.60
+seed = 3
+[base.ensemble]
+kind = "constant_pressure"
+pressure = 1e-2
+xi_V = 1.0
+[base.shear]
+rate = 1e-2
+[base.integrator]
+kind = "euler"
+dt = 0.05
+[base.run]
+t_eq = 0.0
+t_av = 100.0
+[prepare]
+t = 200.0
+[run]
+t_eq = 10.0
+t_av = 60.0
+sample_every = 1.0
+[[setting]]
+label = "np"
+[[setting]]
+label = "nv"
+ensemble = { kind = "constant_volume" }
+start = "mean_phi"
+TOML
+"$jamflow" compare ens.toml --out ens.out -j 2 -q --no-plots > ens.txt 2>&1
+rc=$?
+# Each constant-volume replica runs at its preparation's mean phi (the window mean), not at the
+# phi of the preparation's last frame.
+if [ "$rc" -eq 0 ] && /usr/bin/python3 - ens.out <<'PY'
+import glob, sys, h5py, numpy as np
+out = sys.argv[1]
+for k in (0, 1):
+    prep = glob.glob(f"{out}/prepare/runs/points/prepare_r{k}/r0.h5")[0]
+    nv = glob.glob(f"{out}/settings/runs/points/nv_r{k}/r0.h5")[0]
+    with h5py.File(prep) as p, h5py.File(nv) as v:
+        mean, last = p["summary"].attrs["phi"], p["timeseries/phi"][-1]
+        phi = v["timeseries/phi"][:]
+        assert abs(mean - last) > 1e-6, (mean, last)  # the test tells the two apart
+        assert np.allclose(phi, mean, rtol=1e-9, atol=0), (phi[:3], mean)
+PY
+then ok "start = \"mean_phi\": constant volume runs at each preparation's mean phi"
+else bad "mean_phi: exit $rc, $(tail -3 ens.txt)"; fi
+grep -q 'start = "mean_phi"' ens.out/report.md && ok "the report says where nv started" ||
+  bad "report does not say start = mean_phi"
+sed 's/^start = "mean_phi"$/start = "middle"/' ens.toml > bad.toml
+expect_error "a bad start" 'start = .middle.; allowed "final".*"mean_phi"'
+sed 's/^ensemble = { kind = "constant_volume" }$//' ens.toml > bad.toml
+expect_error "mean_phi at constant pressure" 'start = "mean_phi" at constant pressure; allowed'
 
 # ---- The sweep engine's other runners: a Slurm job array for the next stage, and MPI ranks.
 "$jamflow" compare small.toml --slurm --out slurm.out > slurm.txt 2>&1
