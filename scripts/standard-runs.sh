@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Standard presets that take longer than one sitting (hard-sphere: about 16 CPU-hours). While
+# Standard presets that take longer than one sitting (hard-sphere: about 6 CPU-hours). While
 # such a sweep runs, its folder (point scenes, checkpoints, journal) is kept in the repository
 # under studies/<study>/results/standard-running/, so that it continues on any machine from
 # where it stopped; a finished preset's results go to studies/<study>/results/standard/ as

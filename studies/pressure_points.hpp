@@ -34,7 +34,7 @@ struct GridPreset {
   std::string why;     // one line: what the preset is for
 };
 
-// quick (CI: the pipeline end to end, not the physics), standard (about 9 CPU-hours: N = 1000
+// quick (CI: the pipeline end to end, not the physics), standard (about 6 CPU-hours: N = 1000
 // at P = 3e-5 and 1e-5, J from 1 to 3e-4), paper (the seed's grid, for a cluster).
 GridPreset grid_preset(const std::string& preset);
 // The finite-size study's sizes over the same grid.

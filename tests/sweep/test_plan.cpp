@@ -120,6 +120,18 @@ TEST(SweepPlan, CostIsTheIntegratorsCpuTimeOverTheRun) {
     EXPECT_TRUE(pt.cost > 0.0 && std::isfinite(pt.cost)) << pt.name;
   EXPECT_GT(rkc.points[0].cost, rkc.points[1].cost);  // tighter atol
   EXPECT_GT(rkc.points[0].cost, rkc.points[2].cost);  // higher pressure
+  // Below J = 0.1, at atol = 0.1 delta (delta = P for harmonic spheres), a slower shear costs
+  // less per unit time (measured: about (J / 0.1)^0.2); at atol = delta it does not.
+  const Plan slow = parse(R"([sweep]
+[sweep.zip]
+"integrator" = [{kind = "rkc", atol = 1e-6}, {kind = "rkc", atol = 1e-6},
+                {kind = "rkc", atol = 1e-5}, {kind = "rkc", atol = 1e-5}]
+"ensemble.pressure" = [1e-5, 1e-5, 1e-5, 1e-5]
+"shear.rate" = [1e-6, 1e-8, 1e-6, 1e-8]
+)");
+  ASSERT_EQ(slow.points.size(), 4u);
+  EXPECT_NEAR(slow.points[1].cost / slow.points[0].cost, std::pow(1e-2, 0.2), 1e-9);
+  EXPECT_NEAR(slow.points[3].cost / slow.points[2].cost, 1.0, 1e-9);
 }
 
 TEST(SweepPlan, TasksAreReplicasWithConsecutiveSeedsLongestFirst) {
