@@ -8,7 +8,8 @@
 #    the ranking follows the paired errors; report, HDF5 and plots are written;
 #  - --dry-run counts the stages; a SIGTERM stops the sweep, and the same command again does
 #    not redo the runs that had finished.
-#  - the example examples/compare_rkc_euler.toml is a valid compare file (its dry run).
+#  - the examples examples/compare_rkc_euler.toml and compare_ensembles.toml are valid compare
+#    files (their dry runs).
 #  - start = "mean_phi": a constant-volume setting runs at its preparation's mean phi; bad start
 #    values and mean_phi at constant pressure are one-line errors.
 #  - on the sweep engine's other runners: --slurm writes the next stage's job array, and under
@@ -120,6 +121,9 @@ fi
 example=$("$jamflow" compare "$source_dir/examples/compare_rkc_euler.toml" --out example --dry-run 2>&1)
 echo "$example" | grep -q "compare (stage settings): 15 points" &&
   ok "the example's dry run counts its 15 runs" || bad "example: $example"
+example=$("$jamflow" compare "$source_dir/examples/compare_ensembles.toml" --out ensembles --dry-run 2>&1)
+echo "$example" | grep -q "compare (stage settings): 6 points" &&
+  ok "the ensemble example's dry run counts its 6 runs" || bad "ensemble example: $example"
 
 # ---- The whole comparison.
 "$jamflow" compare small.toml --out full -j 2 -q >full.txt 2>full.err
