@@ -1,6 +1,6 @@
 // Owns one HDF5 identifier and closes it with the function for its kind of object (H5Fclose,
 // H5Gclose, H5Aclose, ...). The one such handle: the HDF5 layer (lib/h5.cpp) and the run-file
-// module's reader (driver/run_summary.cpp) use it.
+// module's reader (driver/run_summary.cpp) and the H5MD trajectory writer (lib/h5md.cpp) use it.
 #pragma once
 #include <hdf5.h>
 

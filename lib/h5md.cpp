@@ -7,6 +7,7 @@
 
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
+#include "lib/h5_handle.hpp"
 
 #ifndef JAMFLOW_VERSION
 #define JAMFLOW_VERSION "unknown"
@@ -16,24 +17,7 @@ namespace jamflow {
 
 namespace {
 
-class Id {
- public:
-  Id(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
-  ~Id() {
-    if (id_ >= 0)
-      close_(id_);
-  }
-  Id(Id&& other) noexcept : id_(std::exchange(other.id_, H5I_INVALID_HID)), close_(other.close_) {}
-  Id(const Id&) = delete;
-  Id& operator=(const Id&) = delete;
-  Id& operator=(Id&&) = delete;
-  hid_t get() const { return id_; }
-  bool ok() const { return id_ >= 0; }
-
- private:
-  hid_t id_;
-  herr_t (*close_)(hid_t);
-};
+using Id = H5Handle;  // lib/h5_handle.hpp
 
 [[noreturn]] void fail(const std::string& path, const std::string& what) {
   H5Eclear2(H5E_DEFAULT);
