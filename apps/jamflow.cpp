@@ -17,7 +17,7 @@
 #include "lib/cli_exit.hpp"
 #include "lib/error.hpp"
 #include "lib/version.hpp"
-#include "studies/compare/compare.hpp"
+#include "studies/compare.hpp"
 #include "studies/study.hpp"
 
 namespace {

@@ -30,11 +30,11 @@ foreach(dir lib ensembles integrators driver sweep analysis)
     FILES_MATCHING PATTERN "*.hpp" PATTERN "*.inl" PATTERN "*.h")
 endforeach()
 # What the binaries read at run time, found relative to them (lib/data_files.hpp): the plot
-# scripts of `jamflow analyze` and of the studies.
+# scripts of `jamflow analyze` and of the studies, and the studies' compare files (<preset>.toml).
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/analysis/plots/
   DESTINATION ${CMAKE_INSTALL_DATADIR}/jamflow/analysis/plots FILES_MATCHING PATTERN "*.py")
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/studies/ DESTINATION ${CMAKE_INSTALL_DATADIR}/jamflow/studies
-  FILES_MATCHING PATTERN "plot.py" PATTERN "results" EXCLUDE)
+  FILES_MATCHING PATTERN "plot.py" PATTERN "*.toml" PATTERN "results" EXCLUDE)
 install(EXPORT jamflowTargets NAMESPACE jamflow:: DESTINATION ${JAMFLOW_CMAKE_DIR})
 
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/jamflowConfig.cmake.in

@@ -29,7 +29,10 @@ for study in hard-sphere finite-size soft-rheology olsson-teitel; do
     /usr/bin/python3 "$root/tests/studies/quick_numbers.py" --store "$work/$study/$f" "$ref/$f"
   done
 done
-# The studies in stages: their HDF5 file, as a digest of its numbers (quick_numbers.py).
+# The studies in stages: their HDF5 file, as a digest of its numbers (quick_numbers.py); a study
+# that is a comparison plan writes compare.h5.
+declare -A h5=([timestep]=timestep.h5 [stability]=stability.h5 [softness]=softness.h5
+  [ensemble]=compare.h5)
 for study in timestep stability softness ensemble; do
   echo "quick-reference: $study"
   "$jamflow" study "$study" --preset quick --out "$work/$study" -j 2 --no-plots \
@@ -37,7 +40,7 @@ for study in timestep stability softness ensemble; do
   ref="$root/tests/studies/data/quick/$study"
   rm -rf "$ref"
   mkdir -p "$ref"
-  /usr/bin/python3 "$root/tests/studies/quick_numbers.py" --digest "$work/$study/$study.h5" \
-    "$ref/$study.h5.digest.json"
+  /usr/bin/python3 "$root/tests/studies/quick_numbers.py" --digest "$work/$study/${h5[$study]}" \
+    "$ref/${h5[$study]}.digest.json"
 done
 echo "quick-reference: written under tests/studies/data/quick/"

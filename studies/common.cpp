@@ -79,12 +79,16 @@ bool run_plot(const std::string& script, const std::vector<std::string>& args,
   if (options.no_plots)
     return false;
   const analysis::PlotOutcome o =
-      analysis::run_python_plot(data_dir("studies", JAMFLOW_STUDIES_DIR) + "/" + script, args);
+      analysis::run_python_plot(studies_data_dir() + "/" + script, args);
   if (o.status != analysis::PlotStatus::kOk) {
     std::fprintf(stderr, "warning: %s; data and tables are written\n", o.message.c_str());
     return false;
   }
   return true;
+}
+
+std::string studies_data_dir() {
+  return data_dir("studies", JAMFLOW_STUDIES_DIR);
 }
 
 void ensure_dir(const std::string& dir) {

@@ -42,6 +42,10 @@ std::string num(double value, int digits = 4);
 bool run_plot(const std::string& script, const std::vector<std::string>& args,
               const StudyOptions& options);
 
+// The studies' installed data folder (plot scripts, compare files): <share>/jamflow/studies, or
+// the source folder in a build tree (lib/data_files.hpp).
+std::string studies_data_dir();
+
 // Creates the output folder (and parents); throws IoError if it cannot.
 void ensure_dir(const std::string& dir);
 

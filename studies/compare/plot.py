@@ -1,10 +1,12 @@
 """Work-precision plots of a comparison (`jamflow compare`) from its table.csv.
 
-usage: plot.py table.csv OUT_DIR
+usage: plot.py table.csv OUT_DIR [compare.h5]
 One figure per observable, work_precision_<observable>.png: |difference from the reference|
 against CPU seconds per particle and tau_0, log-log, with the difference's error bar. Filled
 markers: stable settings; crosses: unstable ones; dashed line: the floor (the reference's own
-error), below which differences are not resolved.
+error), below which differences are not resolved. With compare.h5, also timeseries.png: each
+observable against time, every replica of every setting (a colour per setting), the averaging
+window after the dotted line of each setting's t_eq.
 """
 import csv
 import sys
@@ -59,5 +61,45 @@ def main(table, out_dir):
         plt.close(fig)
 
 
+def timeseries(h5_path, out_dir):
+    import h5py
+    with h5py.File(h5_path, "r") as f:
+        settings = sorted(f["settings"].items(), key=lambda kv: int(kv[1].attrs["index"]))
+        observables = [o for o in settings[0][1].keys() if o != "replicas"]
+        fig, axes = plt.subplots(len(observables), 1, figsize=(7.5, 2.4 * len(observables) + 0.8),
+                                 sharex=True, squeeze=False)
+        settled = {obs: [] for obs in observables}  # after the first 2% of each run: the range
+        for i, (label, g) in enumerate(settings):
+            colour = "C%d" % (i % 10)
+            reps = g["replicas"] if "replicas" in g else {}
+            for k, key in enumerate(sorted(reps.keys(), key=int)):
+                r = reps[key]
+                t = r["time"][()]
+                for ax, obs in zip(axes[:, 0], observables):
+                    y = r[obs][()]
+                    ax.plot(t, y, color=colour, lw=0.6, alpha=0.8,
+                            label=label if k == 0 else None)
+                    if len(t):
+                        settled[obs].extend(y[t > 0.02 * t[-1]])
+                if k == 0:
+                    for ax in axes[:, 0]:
+                        ax.axvline(float(r.attrs["t_eq"]), color=colour, ls=":", lw=0.8)
+        for ax, obs in zip(axes[:, 0], observables):
+            ax.set_ylabel(obs)
+            y = np.asarray(settled[obs], dtype=float)
+            y = y[np.isfinite(y)]
+            if y.size:
+                lo, hi = y.min(), y.max()
+                pad = 0.1 * (hi - lo) if hi > lo else max(abs(hi), 1e-300) * 1e-3
+                ax.set_ylim(lo - pad, hi + pad)
+        axes[0, 0].legend(fontsize=7)
+        axes[-1, 0].set_xlabel("time since the start of the run (tau_0)")
+        fig.tight_layout()
+        fig.savefig("%s/timeseries.png" % out_dir, dpi=120)
+        plt.close(fig)
+
+
 if __name__ == "__main__":
     main(sys.argv[1], sys.argv[2])
+    if len(sys.argv) > 3:
+        timeseries(sys.argv[3], sys.argv[2])

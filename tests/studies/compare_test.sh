@@ -10,8 +10,10 @@
 #    not redo the runs that had finished.
 #  - the examples examples/compare_rkc_euler.toml and compare_ensembles.toml are valid compare
 #    files (their dry runs).
-#  - start = "mean_phi": a constant-volume setting runs at its preparation's mean phi; bad start
-#    values and mean_phi at constant pressure are one-line errors.
+#  - start = "mean_phi": a constant-volume setting runs at one packing fraction, the mean of its
+#    preparations' window-mean phi over the steady ones; from = "np": a setting continues from
+#    another's replica k in a third stage, at that setting's mean phi; bad start and from values
+#    and mean_phi at constant pressure are one-line errors.
 #  - on the sweep engine's other runners: --slurm writes the next stage's job array, and under
 #    mpirun -n 2 the comparison gives the local one's numbers.
 # usage: compare_test.sh JAMFLOW_BINARY SOURCE_DIR
@@ -240,24 +242,62 @@ start = "mean_phi"
 TOML
 "$jamflow" compare ens.toml --out ens.out -j 2 -q --no-plots > ens.txt 2>&1
 rc=$?
-# Each constant-volume replica runs at its preparation's mean phi (the window mean), not at the
-# phi of the preparation's last frame.
-if [ "$rc" -eq 0 ] && /usr/bin/python3 - ens.out <<'PY'
+# Every constant-volume replica runs at one packing fraction: the mean over the steady sources
+# (all if none is steady) of their window-mean phi, not at the phi of a last frame nor at each
+# replica's own mean. $1: the source's folder and label, $2: the setting's.
+same_phi() {
+  /usr/bin/python3 - ens.out "$1" "$2" <<'PY'
 import glob, sys, h5py, numpy as np
-out = sys.argv[1]
+out, source, setting = sys.argv[1:]
+means, steady, lasts = [], [], []
 for k in (0, 1):
-    prep = glob.glob(f"{out}/prepare/runs/points/prepare_r{k}/r0.h5")[0]
-    nv = glob.glob(f"{out}/settings/runs/points/nv_r{k}/r0.h5")[0]
-    with h5py.File(prep) as p, h5py.File(nv) as v:
-        mean, last = p["summary"].attrs["phi"], p["timeseries/phi"][-1]
+    with h5py.File(glob.glob(f"{out}/{source}_r{k}/r0.h5")[0]) as p:
+        means.append(p["summary"].attrs["phi"])
+        steady.append(p["summary"].attrs["steady"] == 1)
+        lasts.append(p["timeseries/phi"][-1])
+use = [m for m, s in zip(means, steady) if s] or means
+target = np.mean(use)
+assert abs(means[0] - means[1]) > 1e-6, means  # the test tells a replica's mean from the pool's
+assert all(abs(target - x) > 1e-6 for x in lasts), (target, lasts)
+for k in (0, 1):
+    with h5py.File(glob.glob(f"{out}/{setting}_r{k}/r0.h5")[0]) as v:
         phi = v["timeseries/phi"][:]
-        assert abs(mean - last) > 1e-6, (mean, last)  # the test tells the two apart
-        assert np.allclose(phi, mean, rtol=1e-9, atol=0), (phi[:3], mean)
+        assert np.allclose(phi, target, rtol=1e-9, atol=0), (k, phi[:3], target, means, steady)
 PY
-then ok "start = \"mean_phi\": constant volume runs at each preparation's mean phi"
+}
+if [ "$rc" -eq 0 ] && same_phi prepare/runs/points/prepare settings/runs/points/nv; then
+  ok "start = \"mean_phi\": every constant-volume replica runs at the preparations' mean phi"
 else bad "mean_phi: exit $rc, $(tail -3 ens.txt)"; fi
 grep -q 'start = "mean_phi"' ens.out/report.md && ok "the report says where nv started" ||
   bad "report does not say start = mean_phi"
+# from = "np": constant volume continues from the constant-pressure setting's replica k (a third
+# stage, continued/), at that setting's mean phi.
+cat ens.toml - > from.toml <<'TOML'
+[[setting]]
+label = "nv-from-np"
+from = "np"
+start = "mean_phi"
+ensemble = { kind = "constant_volume" }
+run = { t_eq = 5.0 }
+TOML
+"$jamflow" compare from.toml --out ens.out -j 2 -q --no-plots > from.txt 2>&1
+rc=$?
+if [ "$rc" -eq 0 ] && [ -d ens.out/continued/runs/points/nv-from-np_r1 ] &&
+  same_phi settings/runs/points/np continued/runs/points/nv-from-np &&
+  [ "$(tail -n +2 ens.out/table.csv | wc -l)" -eq 3 ] &&
+  grep -q '`nv-from-np` continues from replica k of `np`' ens.out/report.md; then
+  ok "from = \"np\": a third stage continues from np's replicas at their mean phi"
+else bad "from: exit $rc, $(tail -3 from.txt)"; fi
+sed 's/^from = "np"$/from = "nv-from-np"/' from.toml > bad.toml
+expect_error "from a later setting" 'from = "nv-from-np"; allowed the label of an earlier \[\[setting\]\]: np, nv$'
+cat from.toml - > bad.toml <<'TOML'
+[[setting]]
+label = "chain"
+from = "nv-from-np"
+TOML
+expect_error "a chain of from" "from = \"nv-from-np\", which itself continues from 'np'; allowed a setting that starts from the preparation"
+sed 's/^run = { t_eq = 5.0 }$/run = { t_av = 5.0 }/' from.toml > bad.toml
+expect_error "a setting's t_av" "key run.t_av = 5.0 cannot be overridden here; allowed"
 sed 's/^start = "mean_phi"$/start = "middle"/' ens.toml > bad.toml
 expect_error "a bad start" 'start = .middle.; allowed "final".*"mean_phi"'
 sed 's/^ensemble = { kind = "constant_volume" }$//' ens.toml > bad.toml

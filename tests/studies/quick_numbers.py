@@ -31,10 +31,11 @@ NOT_NUMBERS = re.compile(
     re.I)
 # What a study chooses by measured CPU time (the cheapest setting), and all that follows from
 # the choice: the timestep study's accuracy targets, the softness study's chosen integrator and
-# its pressure scans.
+# its pressure scans, a comparison's recommendation.
 DEPENDS_ON_TIMING = {
     "timestep.h5": re.compile(r"^targets/"),
     "softness.h5": re.compile(r"candidates/c\d+@chosen$|/pscan/|^alphas/a\d+@integrator"),
+    "compare.h5": re.compile(r"^@recommended$"),
 }
 
 

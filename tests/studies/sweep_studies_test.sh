@@ -159,8 +159,9 @@ for preset in quick standard paper; do
     bad "dry-run $preset created point folders"
 done
 
-# The studies in stages (timestep, stability, softness: a preparation first; ensemble: constant
-# pressure, then constant volume from its final states) on the sweep engine too: --dry-run
+# The studies in stages (timestep, stability, softness: a preparation first; ensemble, a
+# comparison plan: relaxed starts, constant pressure, then constant volume from its final
+# states) on the sweep engine too: --dry-run
 # counts every stage (the later ones with stand-in start states) and runs nothing; --slurm writes that stage's job array (not
 # submitted) and says to rerun the command for the next. Their quick presets run end to end in
 # test_studies (each run a `jamflow run` process; a rerun computes nothing).
@@ -178,7 +179,7 @@ fi
 
 for study in timestep stability softness ensemble; do
   case "$study" in
-    ensemble) stage=np ;;
+    ensemble) stage=prepare ;;
     *) stage=prep ;;
   esac
   line=$("$jamflow" study "$study" --preset quick --dry-run --out "$work/dry-$study" 2>&1)

@@ -1,6 +1,6 @@
 // `jamflow compare`: the compare file, its two stages on the sweep engine, and the report
-// (studies/compare/compare.hpp).
-#include "studies/compare/compare.hpp"
+// (studies/compare.hpp).
+#include "studies/compare.hpp"
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -39,22 +39,23 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Keys a setting (or the preparation) may override: what changes the method or the state point,
-// not what makes the runs comparable (start state, seed, lengths, sampling) nor what the sweep
-// sets (output, threads, replicas).
-bool overridable(const std::string& section, const std::string& key) {
+// not what makes the runs comparable (start state, seed, averaging window, sampling) nor what
+// the sweep sets (output, threads, replicas). A setting may also set its own run.t_eq (the
+// transient it discards: a setting continued from another one's steady state needs less).
+bool overridable(const std::string& section, const std::string& key, bool setting) {
   if (section == "integrator" || section == "ensemble")
     return true;
   if (section == "system")
-    return key == "N" || key == "alpha" || key == "skin";
+    return key == "alpha" || key == "skin" || (setting && key == "N");
   if (section == "shear")
     return key == "rate";
   if (section == "run")
-    return key == "max_force_evaluations";
+    return key == "max_force_evaluations" || (setting && key == "t_eq");
   return false;
 }
 constexpr const char* kOverridable =
-    "integrator.*, ensemble.*, system.N, system.alpha, system.skin, shear.rate, "
-    "run.max_force_evaluations";
+    "integrator.*, ensemble.*, system.alpha, system.skin, shear.rate, "
+    "run.max_force_evaluations, and in a [[setting]] system.N and run.t_eq";
 
 std::string show(const toml::node& v) {
   std::ostringstream os;
@@ -66,13 +67,12 @@ std::string show(const toml::node& v) {
 // integrator.dt = 0.1) and quoted dotted keys ("integrator.dt" = 0.1) alike, as section ->
 // table. `skip`: keys of the table itself (label, t, init).
 toml::table read_overrides(const toml::table& t, const std::string& where,
-                           const std::vector<std::string>& skip, bool allow_n) {
+                           const std::vector<std::string>& skip, bool setting) {
   toml::table out;
   auto add = [&](const std::string& section, const std::string& key, const toml::node& v) {
-    if (!overridable(section, key) || (!allow_n && section == "system" && key == "N"))
+    if (!overridable(section, key, setting))
       throw ConfigError(where + ": key " + section + "." + key + " = " + show(v) +
-                        " cannot be overridden here; allowed " + kOverridable +
-                        (allow_n ? "" : " (but system.N, which each setting sets)"));
+                        " cannot be overridden here; allowed " + kOverridable);
     if (v.is_table() || v.is_array_of_tables())
       throw ConfigError(where + ": key " + section + "." + key + " is a table; allowed a value");
     if (!out.contains(section))
@@ -346,15 +346,22 @@ ComparePlan parse_compare(const std::string& text, const std::string& source,
     for (const auto& other : plan.settings)
       if (other.label == s.label)
         throw ConfigError(at + ": label \"" + s.label + "\" given twice; allowed unique labels");
-    s.overrides =
-        read_overrides(t, where + "[[setting]] '" + s.label + "'", {"label", "start"}, true);
+    s.overrides = read_overrides(t, where + "[[setting]] '" + s.label + "'",
+                                 {"label", "start", "from"}, true);
     if (const toml::node* st = t.get("start")) {
       const auto v = st->value<std::string>();
       if (!v || (*v != "final" && *v != "mean_phi"))
         throw ConfigError(where + "[[setting]] '" + s.label + "': start = " + show(*st) +
-                          "; allowed \"final\" (the prepared state as it ended) or "
-                          "\"mean_phi\" (dilated to the preparation's mean phi)");
+                          "; allowed \"final\" (the source's state as it ended) or "
+                          "\"mean_phi\" (dilated to the source's mean phi)");
       s.start_mean_phi = *v == "mean_phi";
+    }
+    if (const toml::node* f = t.get("from")) {
+      const auto v = f->value<std::string>();
+      if (!v)
+        throw ConfigError(where + "[[setting]] '" + s.label + "': from = " + show(*f) +
+                          "; allowed the label of an earlier [[setting]]");
+      s.from = *v;
     }
     s.n = base_n;
     if (const toml::table* sys = s.overrides.get_as<toml::table>("system"))
@@ -378,13 +385,34 @@ ComparePlan parse_compare(const std::string& text, const std::string& source,
                       "; allowed the label of a setting: " + join(labels));
   plan.reference = static_cast<std::size_t>(it - labels.begin());
 
+  for (auto& s : plan.settings) {
+    if (s.from.empty())
+      continue;
+    const auto src = std::find(labels.begin(), labels.end(), s.from);
+    const auto idx = static_cast<std::size_t>(&s - plan.settings.data());
+    if (src == labels.end() || std::size_t(src - labels.begin()) >= idx)
+      throw ConfigError(where + "[[setting]] '" + s.label + "': from = \"" + s.from +
+                        "\"; allowed the label of an earlier [[setting]]: " +
+                        join(std::vector<std::string>(labels.begin(), labels.begin() + idx)));
+    s.from_index = static_cast<std::size_t>(src - labels.begin());
+    const CompareSetting& source = plan.settings[s.from_index];
+    if (!source.from.empty())
+      throw ConfigError(where + "[[setting]] '" + s.label + "': from = \"" + s.from +
+                        "\", which itself continues from '" + source.from +
+                        "'; allowed a setting that starts from the preparation");
+    if (source.n != s.n)
+      throw ConfigError(where + "[[setting]] '" + s.label + "': from = \"" + s.from +
+                        "\" with N = " + std::to_string(s.n) + " against its " +
+                        std::to_string(source.n) + "; allowed the same N");
+  }
   for (const auto& s : plan.settings) {
     if (!s.start_mean_phi)
       continue;
-    if (!plan.init.empty())
+    if (!plan.init.empty() && s.from.empty())
       throw ConfigError(where + "[[setting]] '" + s.label +
                         "': start = \"mean_phi\" with [prepare] init; allowed with a "
-                        "preparation run ([prepare] t), whose mean phi it takes");
+                        "preparation run ([prepare] t) or from = a setting, whose mean phi it "
+                        "takes");
     const auto idx = static_cast<std::size_t>(&s - plan.settings.data());
     if (plan.setting_scene(idx).section("ensemble").text("kind", "") != "constant_volume")
       throw ConfigError(where + "[[setting]] '" + s.label +
@@ -420,6 +448,23 @@ ComparePlan load_compare(const std::string& path) {
   std::ostringstream buf;
   buf << in.rdbuf();
   return parse_compare(buf.str(), path, fs::path(path).parent_path().string());
+}
+
+ComparePlan study_compare_plan(const std::string& study, const std::string& preset) {
+  const fs::path dir = fs::path(studies_data_dir()) / study;
+  const fs::path file = dir / (preset + ".toml");
+  std::error_code ec;
+  if (!fs::is_regular_file(file, ec)) {
+    std::vector<std::string> presets;
+    for (const auto& e : fs::directory_iterator(dir, ec))
+      if (e.path().extension() == ".toml")
+        presets.push_back(e.path().stem().string());
+    std::sort(presets.begin(), presets.end());
+    throw ConfigError("--preset " + preset + "; allowed " + join(presets));
+  }
+  ComparePlan plan = load_compare(file.string());
+  plan.name = plan.study = study;  // its stages and report are the study's
+  return plan;
 }
 
 namespace {
@@ -664,6 +709,20 @@ void write_h5(const std::string& path, const ComparePlan& plan,
     w.attr(g, "force_step_correlation", sr.step_correlation);
     if (!sr.replicas.empty())
       w.attr(g, "scene", sr.replicas.front().scene_text);
+    // Every replica's sampled series of the observables (the transient too), for plots.
+    for (std::size_t k = 0; k < sr.replicas.size(); ++k) {
+      const DiagnosedRun& rr = sr.replicas[k];
+      const std::string rg = g + "/replicas/" + std::to_string(k);
+      w.dataset(rg + "/time", rr.result.series.column(&Sample::time));
+      w.attr(rg, "t_eq", rr.t_eq);
+      for (const auto& name : plan.observables) {
+        const Field f = field_of(name, rr.gdot);
+        std::vector<double> x = rr.result.series.column(f.member);
+        for (double& v : x)
+          v *= f.factor;
+        w.dataset(rg + "/" + name, x);
+      }
+    }
     for (std::size_t o = 0; o < r.observables.size(); ++o) {
       const auto& x = r.observables[o];
       const std::string og = g + "/" + plan.observables[o];
@@ -693,7 +752,7 @@ void write_h5(const std::string& path, const ComparePlan& plan,
 
 std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& runs,
                       const analysis::CompareResult& res, bool plotted,
-                      const std::vector<DiagnosedRun>& preps) {
+                      const std::vector<DiagnosedRun>& preps, const std::string& section) {
   const std::string ref = plan.settings[plan.reference].label;
   std::string md = "# Comparison `" + plan.name + "`\n\n";
   md += std::to_string(plan.settings.size()) + " settings, " + std::to_string(plan.replicas) +
@@ -706,13 +765,25 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
                   " + k, one per N), so differences are paired "
                   "replica by replica.\n\n"
             : "Every setting continues from `" + plan.init + "`.\n\n";
-  for (const auto& s : plan.settings)
-    if (s.start_mean_phi)
-      md += "`" + s.label +
-            "` (constant volume) starts from each prepared state dilated affinely to the "
-            "preparation's mean phi over its window (start = \"mean_phi\").\n\n";
+  for (std::size_t i = 0; i < plan.settings.size(); ++i) {
+    const CompareSetting& s = plan.settings[i];
+    const std::string source =
+        s.from.empty() ? std::string("prepared state") : "`" + s.from + "` run";
+    if (!s.from.empty())
+      md += "`" + s.label + "` continues from replica k of `" + s.from + "`" +
+            (s.start_mean_phi ? "" : ", as it ended") + ".\n\n";
+    if (s.start_mean_phi) {
+      const auto& reps = runs[i].replicas;
+      md += "`" + s.label + "` (constant volume) starts from each " + source +
+            " dilated affinely to one packing fraction, the mean over the steady replicas of "
+            "their window-mean phi (start = \"mean_phi\")" +
+            (reps.empty() ? std::string() : ": phi = " + num(reps.front().value("phi"), 6)) +
+            ".\n\n";
+    }
+  }
   // A preparation that still drifts at its end leaves the rest of the transient to the
   // settings' t_eq; one that did not finish leaves its replica out.
+  std::vector<std::string> drifting_preps;
   for (const DiagnosedRun& p : preps) {
     const auto& v = p.result.summary.verdicts;
     const auto steady = v.find("steady");
@@ -721,10 +792,13 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
             "): the settings that start from it are not analysed (to retry, remove its "
             "folder under prepare/runs/points/ and run again).\n\n";
     else if (steady != v.end() && steady->second.failed())
-      md += "Preparation " + p.label + " still drifts in its second half (" +
-            steady->second.text() +
-            "): the settings' t_eq has to absorb the rest of its transient.\n\n";
+      drifting_preps.push_back(p.label + " (" + steady->second.why + ")");
   }
+  if (!drifting_preps.empty())
+    md +=
+        "Preparations that still drift in their second half, so that the settings' t_eq has "
+        "to absorb the rest of their transient: " +
+        join(drifting_preps) + ".\n\n";
   md += "Observables: " + join(plan.observables) +
         ". A setting is within tolerance when it is "
         "stable, steady (every replica) and, for every observable, |difference| <= " +
@@ -783,7 +857,7 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
         "dashed: the floor; crosses: unstable settings): ";
     for (std::size_t o = 0; o < plan.observables.size(); ++o)
       md += std::string(o ? ", " : "") + "`work_precision_" + plan.observables[o] + ".png`";
-    md += ".\n\n";
+    md += "; every replica's series against time: `timeseries.png`.\n\n";
   } else {
     md += "Plots: not produced (see the warnings).\n\n";
   }
@@ -854,6 +928,8 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
                        rows) +
         "\n";
 
+  md += section;
+
   // Recommendation.
   md += "## Recommendation\n\n";
   if (res.recommended >= 0) {
@@ -881,18 +957,76 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
   return md;
 }
 
+// The steady finished runs' mean of their window-mean phi (all finished runs' if none is
+// steady): the packing fraction a start = "mean_phi" setting runs at. NaN if none finished.
+double pooled_phi(const std::vector<const DiagnosedRun*>& runs) {
+  std::vector<double> steady, all;
+  for (const DiagnosedRun* r : runs) {
+    if (!r->result.status.is_complete() || r->final_xyz.empty())
+      continue;
+    all.push_back(r->value("phi"));
+    const auto& v = r->result.summary.verdicts;
+    const auto it = v.find("steady");
+    if (!(it != v.end() && it->second.failed()))
+      steady.push_back(all.back());
+  }
+  const auto& use = steady.empty() ? all : steady;
+  if (use.empty())
+    return kNaN;
+  return replica_average(use, std::vector<double>(use.size(), 0.0)).mean;
+}
+
+// `final_xyz` dilated affinely to `phi`, at time 0, as DIR/NAME.xyz: written whole under a unique
+// name and renamed (MPI ranks may all get here), and not rewritten when a rerun finds it as it
+// would write it. kCountedStart (a --dry-run) stays kCountedStart.
+std::string dilated_start(const std::string& final_xyz, double phi, const std::string& dir,
+                          const std::string& name) {
+  if (final_xyz == kCountedStart)
+    return kCountedStart;
+  State st = read_xyz(final_xyz);
+  st.box.set_volume(st.particle_volume() / phi);
+  st.time = 0.0;
+  ensure_dir(dir);
+  const std::string file = dir + "/" + name + ".xyz";
+  std::ostringstream text;
+  write_xyz(text, st);
+  std::ifstream old(file, std::ios::binary);
+  const std::string before((std::istreambuf_iterator<char>(old)), std::istreambuf_iterator<char>());
+  if (!old || before != text.str())
+    write_text_atomically(file, text.str());
+  return file;
+}
+
+// The start of replica k of setting s from its source's runs (`source[k]`: the preparation at
+// its N, or its `from` setting; null if that replica did not run): the source's final state, or
+// with start = "mean_phi" that state at the source's pooled mean phi. Empty: no start (the
+// source did not finish).
+std::string start_of(const ComparePlan& plan, std::size_t s, std::size_t k,
+                     const std::vector<const DiagnosedRun*>& source, const std::string& out_dir) {
+  const DiagnosedRun* r = k < source.size() ? source[k] : nullptr;
+  if (!r || !r->result.status.is_complete() || r->final_xyz.empty())
+    return {};
+  if (!plan.settings[s].start_mean_phi || r->final_xyz == kCountedStart)
+    return r->final_xyz;
+  const double phi = pooled_phi(source);
+  const bool from_setting = !plan.settings[s].from.empty();
+  return dilated_start(r->final_xyz, phi,
+                       out_dir + (from_setting ? "/settings/mean_phi" : "/prepare/mean_phi"),
+                       r->label);
+}
+
 }  // namespace
 
-int run_compare(const ComparePlan& plan, const StudyOptions& options) {
+int run_compare(const ComparePlan& plan, const StudyOptions& options,
+                const CompareReportSection& section) {
   ensure_dir(options.out_dir);
   const std::size_t n_set = plan.settings.size();
   const auto k_rep = static_cast<std::size_t>(plan.replicas);
   // Stage 1: one preparation per N and replica (seed + k), unless an init file starts them all.
-  std::map<std::pair<std::int64_t, std::size_t>, std::string> start, mean_phi_start;
+  std::map<std::int64_t, std::vector<const DiagnosedRun*>> prepared;  // N -> replica k
   std::vector<DiagnosedRun> preps;
   if (plan.init.empty()) {
     std::vector<RunRequest> requests;
-    std::vector<std::pair<std::int64_t, std::size_t>> keys;
     const auto sizes = plan.sizes();
     for (std::int64_t n : sizes) {
       for (std::size_t k = 0; k < k_rep; ++k) {
@@ -903,79 +1037,71 @@ int run_compare(const ComparePlan& plan, const StudyOptions& options) {
         r.seed = plan.seed + k;
         r.window = false;
         requests.push_back(std::move(r));
-        keys.emplace_back(n, k);
       }
     }
-    if (const auto status = run_stage("compare", "prepare", requests, options, preps, false))
+    if (const auto status = run_stage(plan.study.empty() ? "compare" : plan.study, "prepare",
+                                      requests, options, preps, false))
       return *status;
     for (std::size_t q = 0; q < preps.size(); ++q) {
-      if (preps[q].result.status.is_complete() && !preps[q].final_xyz.empty()) {
-        start[keys[q]] = preps[q].final_xyz;
-        // The same state dilated to the preparation's mean phi, for start = "mean_phi".
-        if (preps[q].final_xyz == kCountedStart) {
-          mean_phi_start[keys[q]] = kCountedStart;
-        } else if (std::any_of(plan.settings.begin(), plan.settings.end(),
-                               [&](const CompareSetting& s) {
-                                 return s.start_mean_phi && s.n == keys[q].first;
-                               })) {
-          State st = read_xyz(preps[q].final_xyz);
-          st.box.set_volume(st.particle_volume() / preps[q].value("phi"));
-          st.time = 0.0;
-          const std::string dir = options.out_dir + "/prepare/mean_phi";
-          ensure_dir(dir);
-          const std::string file = dir + "/" + preps[q].label + ".xyz";
-          // Written whole under a unique name and renamed (MPI ranks may all get here), and
-          // not rewritten when a rerun finds it as it would write it.
-          std::ostringstream text;
-          write_xyz(text, st);
-          std::ifstream old(file, std::ios::binary);
-          const std::string before((std::istreambuf_iterator<char>(old)),
-                                   std::istreambuf_iterator<char>());
-          if (!old || before != text.str())
-            write_text_atomically(file, text.str());
-          mean_phi_start[keys[q]] = file;
-        }
-      } else if (!options.quiet) {
+      prepared[sizes[q / k_rep]].push_back(&preps[q]);
+      if (!preps[q].result.status.is_complete() && !options.quiet)
         std::fprintf(stderr, "compare: preparation %s did not finish: %s\n", preps[q].label.c_str(),
                      preps[q].verdict_text().c_str());
-      }
     }
-  } else {
-    for (const auto& s : plan.settings)
-      start[{s.n, 0}] = plan.init;
   }
 
-  // Stage 2: every setting x replica from its prepared state.
-  std::vector<RunRequest> requests;
-  std::vector<std::pair<std::size_t, std::size_t>> index;
-  for (std::size_t s = 0; s < n_set; ++s) {
-    for (std::size_t k = 0; k < k_rep; ++k) {
-      const auto& starts = plan.settings[s].start_mean_phi ? mean_phi_start : start;
-      const auto it = starts.find({plan.settings[s].n, k});
-      if (it == starts.end())
-        continue;  // its preparation failed: reported above, and the setting did not run
-      RunRequest r;
-      r.label = plan.settings[s].label + "_r" + std::to_string(k);
-      Scene scene = plan.setting_scene(s);
-      r.scene = scene.text();
-      r.seed = plan.seed + k;
-      r.init = it->second;
-      r.window = false;
-      const toml::table* run = scene.table("run");
-      const toml::node* budget = run ? run->get("max_force_evaluations") : nullptr;
-      r.budget = budget && budget->is_integer() ? budget->as_integer()->get() : 0;
-      requests.push_back(std::move(r));
-      index.emplace_back(s, k);
+  // Stage 2: every setting x replica from its prepared state (or the init file); stage 3: the
+  // settings that continue from a stage-2 setting's replica k.
+  const bool continued = std::any_of(plan.settings.begin(), plan.settings.end(),
+                                     [](const CompareSetting& s) { return !s.from.empty(); });
+  std::vector<std::vector<DiagnosedRun>> done(2);
+  std::vector<std::vector<std::pair<std::size_t, std::size_t>>> index(2);
+  for (int stage = 0; stage < (continued ? 2 : 1); ++stage) {
+    std::vector<RunRequest> requests;
+    for (std::size_t s = 0; s < n_set; ++s) {
+      const CompareSetting& set = plan.settings[s];
+      if (set.from.empty() != (stage == 0))
+        continue;
+      std::vector<const DiagnosedRun*> source;
+      if (stage == 1) {
+        source.assign(k_rep, nullptr);
+        for (std::size_t q = 0; q < done[0].size(); ++q)
+          if (index[0][q].first == set.from_index)
+            source[index[0][q].second] = &done[0][q];
+      } else if (plan.init.empty()) {
+        source = prepared[set.n];
+      }
+      for (std::size_t k = 0; k < k_rep; ++k) {
+        const std::string init = plan.init.empty() || stage == 1
+                                     ? start_of(plan, s, k, source, options.out_dir)
+                                     : plan.init;
+        if (init.empty())
+          continue;  // its source failed: reported, and the setting did not run this replica
+        RunRequest r;
+        r.label = set.label + "_r" + std::to_string(k);
+        Scene scene = plan.setting_scene(s);
+        r.scene = scene.text();
+        r.seed = plan.seed + k;
+        r.init = init;
+        r.window = false;
+        const toml::table* run = scene.table("run");
+        const toml::node* budget = run ? run->get("max_force_evaluations") : nullptr;
+        r.budget = budget && budget->is_integer() ? budget->as_integer()->get() : 0;
+        requests.push_back(std::move(r));
+        index[stage].emplace_back(s, k);
+      }
     }
+    if (requests.empty())
+      throw std::runtime_error("compare " + plan.name + ": no " +
+                               (stage == 0 ? "preparation" : "setting that others continue from") +
+                               " finished, so no setting can start; see the logs under " +
+                               options.out_dir + (stage == 0 ? "/prepare" : "/settings") +
+                               "/runs/points/");
+    if (const auto status = run_stage(plan.study.empty() ? "compare" : plan.study,
+                                      stage == 0 ? "settings" : "continued", requests, options,
+                                      done[stage], stage == 1 || !continued))
+      return *status;
   }
-  if (requests.empty())
-    throw std::runtime_error("compare " + plan.name +
-                             ": no preparation finished, so no setting can start; see the logs "
-                             "under " +
-                             options.out_dir + "/prepare/runs/points/");
-  std::vector<DiagnosedRun> done;
-  if (const auto status = run_stage("compare", "settings", requests, options, done, true))
-    return *status;
   // Counted or written as a job array, not run: nothing to report yet.
   if (options.dry_run || options.slurm)
     return 0;
@@ -988,17 +1114,20 @@ int run_compare(const ComparePlan& plan, const StudyOptions& options) {
     runs[s].integrator = scene.section("integrator").text("kind", "?");
     runs[s].ensemble = scene.section("ensemble").text("kind", "?");
   }
-  for (std::size_t q = 0; q < done.size(); ++q)
-    runs[index[q].first].replicas.push_back(std::move(done[q]));
+  for (int stage = 0; stage < 2; ++stage)
+    for (std::size_t q = 0; q < done[stage].size(); ++q)
+      runs[index[stage][q].first].replicas.push_back(std::move(done[stage][q]));
   for (auto& sr : runs)
     diagnostics_of(sr);
   const analysis::CompareResult res = analysis::compare(analysis_input(plan, runs));
 
   write_text(options.out_dir + "/table.csv", table_csv(plan, runs, res));
   write_h5(options.out_dir + "/compare.h5", plan, runs, res);
-  const bool plotted =
-      run_plot("compare/plot.py", {options.out_dir + "/table.csv", options.out_dir}, options);
-  write_text(options.out_dir + "/report.md", report_md(plan, runs, res, plotted, preps));
+  const bool plotted = run_plot(
+      "compare/plot.py",
+      {options.out_dir + "/table.csv", options.out_dir, options.out_dir + "/compare.h5"}, options);
+  write_text(options.out_dir + "/report.md",
+             report_md(plan, runs, res, plotted, preps, section ? section(plan, res) : ""));
   if (!options.quiet) {
     std::printf("compare %s: %zu settings -> %s/report.md\n", plan.name.c_str(), n_set,
                 options.out_dir.c_str());

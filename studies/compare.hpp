@@ -3,15 +3,20 @@
 // (typed overrides of the base scene: integrator and its parameters, ensemble, alpha_r, N, shear
 // rate), a reference setting, replicas and observables. Replica k of every setting continues
 // from the same prepared state k (prepared with seed base + k), so settings are paired replica
-// by replica. Both stages run on the sweep engine (studies/diagnostics.hpp run_stage: local
-// cores, MPI ranks, Slurm arrays, resume, --dry-run); the numbers come from analysis/compare.hpp,
-// and the report (OUT/compare.h5, OUT/table.csv, PNG plots, OUT/report.md) renders them.
+// by replica; a setting may instead continue from another setting's replica k (`from`). The
+// stages (preparation, settings, settings continued from settings) run on the sweep engine
+// (studies/diagnostics.hpp run_stage: local cores, MPI ranks, Slurm arrays, resume, --dry-run);
+// the numbers come from analysis/compare.hpp, and the report (OUT/compare.h5, OUT/table.csv, PNG
+// plots, OUT/report.md) renders them. A study can be a compare file plus a report section of its
+// own (CompareReportSection): studies/ensemble is one.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "analysis/compare.hpp"
 #include "lib/config.hpp"
 #include "studies/study.hpp"
 
@@ -25,15 +30,22 @@ struct CompareSetting {
   std::string label;
   toml::table overrides;  // section -> table of keys, applied to the base scene
   std::int64_t n = 0;     // particles (the base scene's N unless the setting sets system.N)
-  // start = "mean_phi": a constant-volume setting starts from its preparation's final state
-  // dilated affinely to the preparation's mean phi over its window (not to the last frame's
-  // phi, a fluctuation away from it), as an ensemble comparison at one state point needs.
+  // from = "LABEL": replica k continues from that setting's replica k (which itself starts from
+  // the preparation) instead of from prepared state k; a third stage runs these settings.
+  std::string from;
+  std::size_t from_index = 0;
+  // start = "mean_phi": a constant-volume setting starts from its source's final state (the
+  // preparation's, or the `from` setting's) dilated affinely to the source's mean phi: the mean
+  // over its steady replicas (all, if none is steady) of their window means. Every replica then
+  // runs at the same packing fraction, not at the last frame's phi (a fluctuation away from the
+  // mean) nor at one replica's window mean: one state point, as an ensemble comparison needs.
   bool start_mean_phi = false;
 };
 
 struct ComparePlan {
-  std::string path;  // the compare file
-  std::string name;  // its stem
+  std::string path;   // the compare file
+  std::string name;   // its stem (a study's plan: the study's name)
+  std::string study;  // the study whose preset this is; empty for `jamflow compare`
   Scene base;
   // The preparation: an XYZ start (absolute path), or a run of length prepare_t from a random
   // state (one per N and replica) with the [prepare] overrides.
@@ -65,9 +77,20 @@ ComparePlan load_compare(const std::string& path);
 ComparePlan parse_compare(const std::string& text, const std::string& source,
                           const std::string& base_dir);
 
+// A study's own section of a comparison's report (the seed's numbers beside the comparison's,
+// say): markdown appended to report.md before the recommendation. Reads only the comparison's
+// result, so it is a pure function of what the report shows.
+using CompareReportSection =
+    std::function<std::string(const ComparePlan&, const analysis::CompareResult&)>;
+
 // Runs (or resumes, dry-runs, writes the Slurm array of) the comparison into options.out_dir
 // and writes the report; returns the exit status.
-int run_compare(const ComparePlan& plan, const StudyOptions& options);
+int run_compare(const ComparePlan& plan, const StudyOptions& options,
+                const CompareReportSection& section = {});
+
+// The compare file of a study's preset, shipped in the study's folder as <preset>.toml (installed
+// with the plot scripts); a preset without one is a ConfigError naming the allowed presets.
+ComparePlan study_compare_plan(const std::string& study, const std::string& preset);
 
 // `jamflow compare ...` (args are the words after "compare").
 int compare_main(const std::vector<std::string>& args);
