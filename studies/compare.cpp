@@ -198,6 +198,12 @@ std::vector<std::int64_t> ComparePlan::sizes() const {
   return out;
 }
 
+namespace {
+void check_plan(ComparePlan& plan, const std::string& where);
+ComparePlan case_plan(const ComparePlan& plan, const toml::table& t, const std::string& label,
+                      const std::string& where);
+}  // namespace
+
 ComparePlan parse_compare(const std::string& text, const std::string& source,
                           const std::string& base_dir) {
   // Scene::parse checks what toml++ must not see (non-ASCII outside strings) and names the line
@@ -209,7 +215,8 @@ ComparePlan parse_compare(const std::string& text, const std::string& source,
     static const std::vector<std::string> kKeys = {
         "base",        "prepare",         "run",
         "setting",     "reference",       "replicas",
-        "observables", "tolerance_sigma", "relative_tolerance"};
+        "observables", "tolerance_sigma", "relative_tolerance",
+        "case"};
     if (std::find(kKeys.begin(), kKeys.end(), key) == kKeys.end())
       throw ConfigError(source + ": unknown key " + key + " = " + show(v) + "; allowed " +
                         join(kKeys));
@@ -333,7 +340,6 @@ ComparePlan parse_compare(const std::string& text, const std::string& source,
     throw ConfigError(where +
                       "no [[setting]] tables; allowed at least two [[setting]] with a "
                       "label each");
-  const std::int64_t base_n = scene_n(plan.base);
   for (const auto& node : *list) {
     const toml::table& t = *node.as_table();
     CompareSetting s;
@@ -363,13 +369,6 @@ ComparePlan parse_compare(const std::string& text, const std::string& source,
                           "; allowed the label of an earlier [[setting]]");
       s.from = *v;
     }
-    s.n = base_n;
-    if (const toml::table* sys = s.overrides.get_as<toml::table>("system"))
-      if (const toml::node* n = sys->get("N"); n && n->is_integer())
-        s.n = n->as_integer()->get();
-    if (!plan.init.empty() && s.n != base_n)
-      throw ConfigError(where + "[[setting]] '" + s.label +
-                        "' sets system.N with [prepare] init; allowed N from the start state");
     plan.settings.push_back(std::move(s));
   }
   if (plan.settings.size() < 2)
@@ -400,10 +399,53 @@ ComparePlan parse_compare(const std::string& text, const std::string& source,
       throw ConfigError(where + "[[setting]] '" + s.label + "': from = \"" + s.from +
                         "\", which itself continues from '" + source.from +
                         "'; allowed a setting that starts from the preparation");
-    if (source.n != s.n)
+  }
+
+  const toml::node* case_node = top.get("case");
+  if (!case_node) {
+    check_plan(plan, where);
+    return plan;
+  }
+  const toml::array* case_list = case_node->as_array();
+  if (!case_list || case_list->empty() || !case_list->is_array_of_tables())
+    throw ConfigError(where + "case = " + show(*case_node) +
+                      "; allowed [[case]] tables with a label each");
+  for (const auto& node : *case_list) {
+    const toml::table& t = *node.as_table();
+    const auto label = t.get("label") ? t.get("label")->value<std::string>() : std::nullopt;
+    const std::string at = where + "[[case]] " + std::to_string(plan.cases.size() + 1);
+    if (!label || !valid_label(*label))
+      throw ConfigError(at + ": label = " + (t.get("label") ? show(*t.get("label")) : "missing") +
+                        "; allowed 1-64 characters of A-Z a-z 0-9 _ - . + =");
+    for (const auto& other : plan.cases)
+      if (other.label == *label)
+        throw ConfigError(at + ": label \"" + *label + "\" given twice; allowed unique labels");
+    plan.cases.push_back(case_plan(plan, t, *label, where + "[[case]] '" + *label + "': "));
+  }
+  return plan;
+}
+
+namespace {
+
+// The checks that need the whole plan (a case's, or the file's without cases): every setting's
+// N, what start = "mean_phi" and from need, and every scene through the checks of `jamflow run`,
+// before anything runs.
+void check_plan(ComparePlan& plan, const std::string& where) {
+  const std::int64_t base_n = scene_n(plan.base);
+  for (auto& s : plan.settings) {
+    s.n = base_n;
+    if (const toml::table* sys = s.overrides.get_as<toml::table>("system"))
+      if (const toml::node* n = sys->get("N"); n && n->is_integer())
+        s.n = n->as_integer()->get();
+    if (!plan.init.empty() && s.n != base_n)
+      throw ConfigError(where + "[[setting]] '" + s.label +
+                        "' sets system.N with [prepare] init; allowed N from the start state");
+  }
+  for (const auto& s : plan.settings) {
+    if (!s.from.empty() && plan.settings[s.from_index].n != s.n)
       throw ConfigError(where + "[[setting]] '" + s.label + "': from = \"" + s.from +
                         "\" with N = " + std::to_string(s.n) + " against its " +
-                        std::to_string(source.n) + "; allowed the same N");
+                        std::to_string(plan.settings[s.from_index].n) + "; allowed the same N");
   }
   for (const auto& s : plan.settings) {
     if (!s.start_mean_phi)
@@ -437,8 +479,74 @@ ComparePlan parse_compare(const std::string& text, const std::string& source,
       }
     }
   }
-  return plan;
 }
+
+// One [[case]]: the plan with the case's state point (system.N, phi, alpha; ensemble.*;
+// shear.rate) over the base, and its own [run] lengths and [prepare] t, checked whole.
+ComparePlan case_plan(const ComparePlan& plan, const toml::table& t, const std::string& label,
+                      const std::string& where) {
+  ComparePlan c = plan;
+  c.cases.clear();
+  c.label = label;
+  c.name = plan.name + "/" + label;
+  toml::table base;
+  for (const auto& [k, v] : t) {
+    const std::string section(k.str());
+    if (section == "label")
+      continue;
+    const toml::table* keys = v.as_table();
+    static const std::vector<std::string> kSections = {"system", "ensemble", "shear", "run",
+                                                       "prepare"};
+    if (!keys || std::find(kSections.begin(), kSections.end(), section) == kSections.end())
+      throw ConfigError(where + "key " + section + " = " + show(v) +
+                        "; allowed label and the tables " + join(kSections));
+    if (section == "prepare" && !plan.init.empty())
+      throw ConfigError(where + "[prepare] with [prepare] init = \"" + plan.init +
+                        "\"; allowed with a preparation run ([prepare] t)");
+    if (section == "run" || section == "prepare") {
+      try {
+        ConfigSection sec(section, keys);
+        if (section == "run") {
+          for (const char* key : {"t_eq", "t_av", "sample_every"})
+            if (sec.has(key))
+              c.run.insert_or_assign(
+                  key, sec.number(key, std::string(key) == "t_eq" ? Range::non_negative()
+                                                                  : Range::positive()));
+        } else {
+          if (sec.has("t"))
+            c.prepare_t = sec.number("t", Range::positive());
+          if (sec.has("sample_every"))
+            c.prepare_sample_every = sec.number("sample_every", Range::positive());
+        }
+        sec.finish();
+      } catch (const ConfigError& e) {
+        throw ConfigError(where + e.what());
+      }
+    } else {
+      for (const auto& [k2, v2] : *keys) {
+        const std::string key(k2.str());
+        const bool allowed = section == "ensemble" || (section == "shear" && key == "rate") ||
+                             (section == "system" &&
+                              (key == "N" || key == "phi" || key == "alpha" || key == "skin"));
+        if (!allowed)
+          throw ConfigError(where + "key " + section + "." + key + " = " + show(v2) +
+                            "; allowed system.N, system.phi, system.alpha, system.skin, "
+                            "ensemble.*, shear.rate, run.t_eq, run.t_av, run.sample_every, "
+                            "prepare.t, prepare.sample_every");
+      }
+      base.insert(section, *keys);
+    }
+  }
+  apply_overrides(c.base, base);
+  if (!plan.init.empty() && base.contains("system"))
+    throw ConfigError(where +
+                      "system.* with [prepare] init; allowed N and phi from the start "
+                      "state");
+  check_plan(c, where);
+  return c;
+}
+
+}  // namespace
 
 ComparePlan load_compare(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -1017,33 +1125,149 @@ std::string start_of(const ComparePlan& plan, std::size_t s, std::size_t k,
 
 }  // namespace
 
-int run_compare(const ComparePlan& plan, const StudyOptions& options,
+namespace {
+
+// One comparison of a run: the plan (a case's, or the whole file's), where its runs are in the
+// joint stages, and where it reports.
+struct CaseRuns {
+  const ComparePlan* plan = nullptr;
+  std::string prefix;  // of its point labels: "<case>." ("" without cases)
+  std::string out;     // its report's folder: OUT/<case> (OUT without cases)
+  std::map<std::int64_t, std::vector<const DiagnosedRun*>> prepared;  // N -> replica k
+  std::vector<const DiagnosedRun*> preps;
+  // Per stage (settings, continued): (setting, replica) of each of its runs, and where the run is
+  // in that stage's results.
+  std::vector<std::vector<std::pair<std::size_t, std::size_t>>> index{2};
+  std::vector<std::vector<std::size_t>> at{2};
+};
+
+// Every setting and replica of one case, analysed, and its outputs written under c.out.
+struct CaseReport {
+  analysis::CompareResult result;
+  std::string csv;  // its table.csv
+};
+CaseReport report_case(const CaseRuns& c, std::vector<std::vector<DiagnosedRun>>& done,
+                       const StudyOptions& options, const CompareReportSection& section) {
+  const ComparePlan& plan = *c.plan;
+  std::vector<SettingRuns> runs(plan.settings.size());
+  for (std::size_t s = 0; s < plan.settings.size(); ++s) {
+    const Scene scene = plan.setting_scene(s);
+    runs[s].integrator = scene.section("integrator").text("kind", "?");
+    runs[s].ensemble = scene.section("ensemble").text("kind", "?");
+  }
+  for (int stage = 0; stage < 2; ++stage)
+    for (std::size_t q = 0; q < c.index[stage].size(); ++q)
+      runs[c.index[stage][q].first].replicas.push_back(std::move(done[stage][c.at[stage][q]]));
+  for (auto& sr : runs)
+    diagnostics_of(sr);
+  const analysis::CompareResult res = analysis::compare(analysis_input(plan, runs));
+  ensure_dir(c.out);
+  const std::string csv = table_csv(plan, runs, res);
+  write_text(c.out + "/table.csv", csv);
+  write_h5(c.out + "/compare.h5", plan, runs, res);
+  const bool plotted =
+      run_plot("compare/plot.py", {c.out + "/table.csv", c.out, c.out + "/compare.h5"}, options);
+  std::vector<DiagnosedRun> preps;
+  for (const DiagnosedRun* p : c.preps)
+    preps.push_back(*p);
+  write_text(c.out + "/report.md",
+             report_md(plan, runs, res, plotted, preps, section ? section(plan, res) : ""));
+  if (!options.quiet) {
+    std::printf("compare %s: %zu settings -> %s/report.md\n", plan.name.c_str(),
+                plan.settings.size(), c.out.c_str());
+    if (res.recommended >= 0)
+      std::printf("  cheapest within tolerance: %s\n",
+                  plan.settings[std::size_t(res.recommended)].label.c_str());
+    for (std::size_t s : res.unstable)
+      std::printf("  unstable: %s\n", plan.settings[s].label.c_str());
+  }
+  return {res, csv};
+}
+
+// With [[case]]: OUT/table.csv (every case's rows, a `case` column first) and OUT/report.md (per
+// case the recommendation and the unstable settings, and where its report is).
+void write_cases_summary(const ComparePlan& top, const std::vector<CaseRuns>& cases,
+                         const std::vector<CaseReport>& reports, const std::string& out) {
+  std::string csv,
+      md = "# Comparison `" + top.name + "`: " + std::to_string(cases.size()) + " cases\n\n";
+  md += "The same settings against the reference `" + top.settings[top.reference].label +
+        "` in each case; each case's report is in its folder.\n\n";
+  std::vector<std::vector<std::string>> rows;
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    const ComparePlan& plan = *cases[i].plan;
+    const analysis::CompareResult& res = reports[i].result;
+    std::vector<std::string> unstable;
+    for (std::size_t s : res.unstable)
+      unstable.push_back(plan.settings[s].label);
+    rows.push_back({"[" + plan.label + "](" + plan.label + "/report.md)",
+                    res.recommended >= 0 ? plan.settings[std::size_t(res.recommended)].label
+                                         : std::string("none"),
+                    unstable.empty() ? std::string("none") : join(unstable)});
+    std::istringstream in(reports[i].csv);
+    std::string line;
+    for (bool header = true; std::getline(in, line); header = false) {
+      if (header && !csv.empty())
+        continue;
+      csv += (header ? std::string("case,") : plan.label + ",") + line + "\n";
+    }
+  }
+  md += markdown_table({"case", "cheapest within tolerance", "unstable"}, rows);
+  write_text(out + "/table.csv", csv);
+  write_text(out + "/report.md", md);
+}
+
+}  // namespace
+
+int run_compare(const ComparePlan& top, const StudyOptions& options,
                 const CompareReportSection& section) {
   ensure_dir(options.out_dir);
-  const std::size_t n_set = plan.settings.size();
-  const auto k_rep = static_cast<std::size_t>(plan.replicas);
-  // Stage 1: one preparation per N and replica (seed + k), unless an init file starts them all.
-  std::map<std::int64_t, std::vector<const DiagnosedRun*>> prepared;  // N -> replica k
+  const std::string study = top.study.empty() ? "compare" : top.study;
+  std::vector<CaseRuns> cases;
+  const std::vector<ComparePlan>& plans = top.cases;
+  auto add_case = [&](const ComparePlan& plan, std::string prefix, std::string out) {
+    CaseRuns c;
+    c.plan = &plan;
+    c.prefix = std::move(prefix);
+    c.out = std::move(out);
+    cases.push_back(std::move(c));
+  };
+  if (plans.empty())
+    add_case(top, "", options.out_dir);
+  for (const ComparePlan& plan : plans)
+    add_case(plan, plan.label + ".", options.out_dir + "/" + plan.label);
+
+  // Stage 1: one preparation per case, N and replica (seed + k), unless an init file starts them.
   std::vector<DiagnosedRun> preps;
-  if (plan.init.empty()) {
+  {
     std::vector<RunRequest> requests;
-    const auto sizes = plan.sizes();
-    for (std::int64_t n : sizes) {
-      for (std::size_t k = 0; k < k_rep; ++k) {
-        RunRequest r;
-        r.label = (sizes.size() > 1 ? "prepare_N" + std::to_string(n) : std::string("prepare")) +
-                  "_r" + std::to_string(k);
-        r.scene = plan.prepare_scene(n).text();
-        r.seed = plan.seed + k;
-        r.window = false;
-        requests.push_back(std::move(r));
+    std::vector<std::pair<std::size_t, std::int64_t>> owner;  // case, N
+    for (std::size_t i = 0; i < cases.size(); ++i) {
+      const ComparePlan& plan = *cases[i].plan;
+      if (!plan.init.empty())
+        continue;
+      const auto sizes = plan.sizes();
+      for (std::int64_t n : sizes) {
+        for (std::size_t k = 0; k < std::size_t(plan.replicas); ++k) {
+          RunRequest r;
+          r.label = cases[i].prefix +
+                    (sizes.size() > 1 ? "prepare_N" + std::to_string(n) : std::string("prepare")) +
+                    "_r" + std::to_string(k);
+          r.scene = plan.prepare_scene(n).text();
+          r.seed = plan.seed + k;
+          r.window = false;
+          requests.push_back(std::move(r));
+          owner.emplace_back(i, n);
+        }
       }
     }
-    if (const auto status = run_stage(plan.study.empty() ? "compare" : plan.study, "prepare",
-                                      requests, options, preps, false))
-      return *status;
+    if (!requests.empty()) {
+      if (const auto status = run_stage(study, "prepare", requests, options, preps, false))
+        return *status;
+    }
     for (std::size_t q = 0; q < preps.size(); ++q) {
-      prepared[sizes[q / k_rep]].push_back(&preps[q]);
+      CaseRuns& c = cases[owner[q].first];
+      c.prepared[owner[q].second].push_back(&preps[q]);
+      c.preps.push_back(&preps[q]);
       if (!preps[q].result.status.is_complete() && !options.quiet)
         std::fprintf(stderr, "compare: preparation %s did not finish: %s\n", preps[q].label.c_str(),
                      preps[q].verdict_text().c_str());
@@ -1052,54 +1276,59 @@ int run_compare(const ComparePlan& plan, const StudyOptions& options,
 
   // Stage 2: every setting x replica from its prepared state (or the init file); stage 3: the
   // settings that continue from a stage-2 setting's replica k.
-  const bool continued = std::any_of(plan.settings.begin(), plan.settings.end(),
-                                     [](const CompareSetting& s) { return !s.from.empty(); });
+  bool continued = false;
+  for (const CaseRuns& c : cases)
+    for (const CompareSetting& s : c.plan->settings)
+      continued = continued || !s.from.empty();
   std::vector<std::vector<DiagnosedRun>> done(2);
-  std::vector<std::vector<std::pair<std::size_t, std::size_t>>> index(2);
   for (int stage = 0; stage < (continued ? 2 : 1); ++stage) {
     std::vector<RunRequest> requests;
-    for (std::size_t s = 0; s < n_set; ++s) {
-      const CompareSetting& set = plan.settings[s];
-      if (set.from.empty() != (stage == 0))
-        continue;
-      std::vector<const DiagnosedRun*> source;
-      if (stage == 1) {
-        source.assign(k_rep, nullptr);
-        for (std::size_t q = 0; q < done[0].size(); ++q)
-          if (index[0][q].first == set.from_index)
-            source[index[0][q].second] = &done[0][q];
-      } else if (plan.init.empty()) {
-        source = prepared[set.n];
-      }
-      for (std::size_t k = 0; k < k_rep; ++k) {
-        const std::string init = plan.init.empty() || stage == 1
-                                     ? start_of(plan, s, k, source, options.out_dir)
-                                     : plan.init;
-        if (init.empty())
-          continue;  // its source failed: reported, and the setting did not run this replica
-        RunRequest r;
-        r.label = set.label + "_r" + std::to_string(k);
-        Scene scene = plan.setting_scene(s);
-        r.scene = scene.text();
-        r.seed = plan.seed + k;
-        r.init = init;
-        r.window = false;
-        const toml::table* run = scene.table("run");
-        const toml::node* budget = run ? run->get("max_force_evaluations") : nullptr;
-        r.budget = budget && budget->is_integer() ? budget->as_integer()->get() : 0;
-        requests.push_back(std::move(r));
-        index[stage].emplace_back(s, k);
+    for (CaseRuns& c : cases) {
+      const ComparePlan& plan = *c.plan;
+      const auto k_rep = static_cast<std::size_t>(plan.replicas);
+      for (std::size_t s = 0; s < plan.settings.size(); ++s) {
+        const CompareSetting& set = plan.settings[s];
+        if (set.from.empty() != (stage == 0))
+          continue;
+        std::vector<const DiagnosedRun*> source;
+        if (stage == 1) {
+          source.assign(k_rep, nullptr);
+          for (std::size_t q = 0; q < c.index[0].size(); ++q)
+            if (c.index[0][q].first == set.from_index)
+              source[c.index[0][q].second] = &done[0][c.at[0][q]];
+        } else if (plan.init.empty()) {
+          source = c.prepared[set.n];
+        }
+        for (std::size_t k = 0; k < k_rep; ++k) {
+          const std::string init = plan.init.empty() || stage == 1
+                                       ? start_of(plan, s, k, source, options.out_dir)
+                                       : plan.init;
+          if (init.empty())
+            continue;  // its source failed: reported, and the setting did not run this replica
+          RunRequest r;
+          r.label = c.prefix + set.label + "_r" + std::to_string(k);
+          Scene scene = plan.setting_scene(s);
+          r.scene = scene.text();
+          r.seed = plan.seed + k;
+          r.init = init;
+          r.window = false;
+          const toml::table* run = scene.table("run");
+          const toml::node* budget = run ? run->get("max_force_evaluations") : nullptr;
+          r.budget = budget && budget->is_integer() ? budget->as_integer()->get() : 0;
+          c.index[stage].emplace_back(s, k);
+          c.at[stage].push_back(requests.size());
+          requests.push_back(std::move(r));
+        }
       }
     }
     if (requests.empty())
-      throw std::runtime_error("compare " + plan.name + ": no " +
+      throw std::runtime_error("compare " + top.name + ": no " +
                                (stage == 0 ? "preparation" : "setting that others continue from") +
                                " finished, so no setting can start; see the logs under " +
                                options.out_dir + (stage == 0 ? "/prepare" : "/settings") +
                                "/runs/points/");
-    if (const auto status = run_stage(plan.study.empty() ? "compare" : plan.study,
-                                      stage == 0 ? "settings" : "continued", requests, options,
-                                      done[stage], stage == 1 || !continued))
+    if (const auto status = run_stage(study, stage == 0 ? "settings" : "continued", requests,
+                                      options, done[stage], stage == 1 || !continued))
       return *status;
   }
   // Counted or written as a job array, not run: nothing to report yet.
@@ -1108,35 +1337,11 @@ int run_compare(const ComparePlan& plan, const StudyOptions& options,
   if (sweep::mpi_launched() && sweep::launched_rank() != 0)
     return 0;
 
-  std::vector<SettingRuns> runs(n_set);
-  for (std::size_t s = 0; s < n_set; ++s) {
-    const Scene scene = plan.setting_scene(s);
-    runs[s].integrator = scene.section("integrator").text("kind", "?");
-    runs[s].ensemble = scene.section("ensemble").text("kind", "?");
-  }
-  for (int stage = 0; stage < 2; ++stage)
-    for (std::size_t q = 0; q < done[stage].size(); ++q)
-      runs[index[stage][q].first].replicas.push_back(std::move(done[stage][q]));
-  for (auto& sr : runs)
-    diagnostics_of(sr);
-  const analysis::CompareResult res = analysis::compare(analysis_input(plan, runs));
-
-  write_text(options.out_dir + "/table.csv", table_csv(plan, runs, res));
-  write_h5(options.out_dir + "/compare.h5", plan, runs, res);
-  const bool plotted = run_plot(
-      "compare/plot.py",
-      {options.out_dir + "/table.csv", options.out_dir, options.out_dir + "/compare.h5"}, options);
-  write_text(options.out_dir + "/report.md",
-             report_md(plan, runs, res, plotted, preps, section ? section(plan, res) : ""));
-  if (!options.quiet) {
-    std::printf("compare %s: %zu settings -> %s/report.md\n", plan.name.c_str(), n_set,
-                options.out_dir.c_str());
-    if (res.recommended >= 0)
-      std::printf("  cheapest within tolerance: %s\n",
-                  plan.settings[std::size_t(res.recommended)].label.c_str());
-    for (std::size_t s : res.unstable)
-      std::printf("  unstable: %s\n", plan.settings[s].label.c_str());
-  }
+  std::vector<CaseReport> reports;
+  for (const CaseRuns& c : cases)
+    reports.push_back(report_case(c, done, options, section));
+  if (!top.cases.empty())
+    write_cases_summary(top, cases, reports, options.out_dir);
   return 0;
 }
 

@@ -63,6 +63,13 @@ struct ComparePlan {
   toml::table run;                         // [run] keys for every setting (t_eq, t_av, ...)
   std::int64_t blocks = 20;
 
+  // [[case]]: the same comparison at several state points. Each case is a plan of its own (the
+  // base scene, [run] lengths and [prepare] t overridden by the case; `label` its label), run
+  // together: each stage of every case is one sweep stage, and each case reports into
+  // OUT/<label>/, with OUT/report.md and OUT/table.csv over all of them. Empty: one comparison.
+  std::vector<ComparePlan> cases;
+  std::string label;
+
   // The scene of a setting (base + overrides + [run]) and of the preparation at N particles.
   Scene setting_scene(std::size_t s) const;
   Scene prepare_scene(std::int64_t n) const;

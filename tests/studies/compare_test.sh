@@ -14,6 +14,8 @@
 #    preparations' window-mean phi over the steady ones; from = "np": a setting continues from
 #    another's replica k in a third stage, at that setting's mean phi; bad start and from values
 #    and mean_phi at constant pressure are one-line errors.
+#  - [[case]]: the same settings at two state points run together, each case a report of its
+#    own, one joint table with a case column; bad case keys are one-line errors.
 #  - on the sweep engine's other runners: --slurm writes the next stage's job array, and under
 #    mpirun -n 2 the comparison gives the local one's numbers.
 # usage: compare_test.sh JAMFLOW_BINARY SOURCE_DIR
@@ -302,6 +304,74 @@ sed 's/^start = "mean_phi"$/start = "middle"/' ens.toml > bad.toml
 expect_error "a bad start" 'start = .middle.; allowed "final".*"mean_phi"'
 sed 's/^ensemble = { kind = "constant_volume" }$//' ens.toml > bad.toml
 expect_error "mean_phi at constant pressure" 'start = "mean_phi" at constant pressure; allowed'
+
+# ---- [[case]]: the same settings at two state points, run together, a report per case.
+cat > cases.toml <<'TOML'
+reference = "euler-0.05"
+replicas = 2
+observables = ["sigma_xy"]
+[base.system]
+N = 64
+phi = 0.60
+seed = 5
+[base.ensemble]
+kind = "constant_volume"
+[base.shear]
+rate = 1e-2
+[base.integrator]
+kind = "euler"
+dt = 0.05
+[base.run]
+t_eq = 0.0
+t_av = 100.0
+[prepare]
+t = 100.0
+[run]
+t_eq = 10.0
+t_av = 60.0
+sample_every = 1.0
+[[setting]]
+label = "euler-0.05"
+[[setting]]
+label = "euler-1"
+integrator.dt = 1.0
+[[case]]
+label = "phi0.60"
+[[case]]
+label = "phi0.64-slow"
+system = { phi = 0.64 }
+shear = { rate = 1e-3 }
+run = { t_av = 80.0 }
+TOML
+"$jamflow" compare cases.toml --out cases.out -j 2 -q --no-plots > cases.txt 2>&1
+rc=$?
+# Each case is a comparison of its own at its state point, with its own report and a row per
+# setting in the joint table; the unstable dt = 1 is flagged in both.
+if [ "$rc" -eq 0 ] && [ -s cases.out/phi0.60/report.md ] && [ -s cases.out/phi0.64-slow/compare.h5 ] &&
+  [ "$(tail -n +2 cases.out/table.csv | wc -l)" -eq 4 ] && head -1 cases.out/table.csv | grep -q '^case,setting,' &&
+  [ -d "cases.out/settings/runs/points/phi0.64-slow.euler-1_r1" ] &&
+  grep -q 'phi0.64-slow.*| euler-1' cases.out/report.md &&
+  /usr/bin/python3 - cases.out <<'PY'
+import sys, h5py
+out = sys.argv[1]
+for case, phi, rate, t_av in (("phi0.60", 0.60, 1e-2, 60.0), ("phi0.64-slow", 0.64, 1e-3, 80.0)):
+    with h5py.File(f"{out}/settings/runs/points/{case}.euler-0.05_r0/r0.h5") as f:
+        scene = f.attrs["scene"]
+        scene = scene.decode() if isinstance(scene, bytes) else scene
+        assert f"rate = {rate:g}".replace("0.001", "0.001") in scene or f"rate = {rate}" in scene, scene
+        assert f"t_av = {t_av}" in scene, scene
+        assert abs(f["timeseries/phi"][0] - phi) < 1e-9, f["timeseries/phi"][0]
+    with h5py.File(f"{out}/{case}/compare.h5") as f:
+        assert f["settings/euler-1"].attrs["stable"] == 0
+PY
+then ok "[[case]]: two state points run together, each with its report, the table has a case column"
+else bad "cases: exit $rc, $(tail -3 cases.txt)"; fi
+sed 's/^system = { phi = 0.64 }$/system = { seed = 2 }/' cases.toml > bad.toml
+expect_error "a case's system.seed" "\[\[case\]\] 'phi0.64-slow': key system.seed = 2; allowed system.N, system.phi"
+sed 's/^label = "phi0.64-slow"$/label = "phi0.60"/' cases.toml > bad.toml
+expect_error "a case label twice" 'label "phi0.60" given twice; allowed unique labels'
+sed 's/^run = { t_av = 80.0 }$/run = { t_av = -1.0 }/' cases.toml > bad.toml
+expect_error "a case's t_av" "'phi0.64-slow': \[run\] t_av = -1 is out of range; allowed > 0"
 
 # ---- The sweep engine's other runners: a Slurm job array for the next stage, and MPI ranks.
 "$jamflow" compare small.toml --slurm --out slurm.out > slurm.txt 2>&1
