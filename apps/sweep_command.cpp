@@ -76,14 +76,7 @@ int sweep_command(const std::vector<std::string>& args) {
   app.add_option("--reuse", reuse,
                  "folder of other sweeps (repeatable): finished replicas of the very same scene "
                  "are copied in, not rerun")
-      ->check(CLI::Validator(
-          [](std::string& dir) {
-            std::error_code ec;
-            return std::filesystem::is_directory(dir, ec)
-                       ? std::string()
-                       : "'" + dir + "' is not a folder; allowed a folder of other sweeps";
-          },
-          "DIR"));
+      ->check(reuse_folder());
   app.add_flag("-q,--quiet", quiet, "no progress line");
   std::vector<std::string> rev(args.rbegin(), args.rend());
   try {

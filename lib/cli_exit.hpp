@@ -4,6 +4,7 @@
 #pragma once
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 
 namespace jamflow {
@@ -28,6 +29,18 @@ inline CLI::Validator non_empty_path() {
                              : std::string();
       },
       "PATH");
+}
+
+// For --reuse DIR (`jamflow sweep`, `jamflow study`): an existing folder of other sweeps.
+inline CLI::Validator reuse_folder() {
+  return CLI::Validator(
+      [](std::string& dir) {
+        std::error_code ec;
+        return std::filesystem::is_directory(dir, ec)
+                   ? std::string()
+                   : "'" + dir + "' is not a folder; allowed a folder of other sweeps";
+      },
+      "DIR");
 }
 
 inline int parse_error_exit(const CLI::App& app, const CLI::ParseError& e, const char* program) {

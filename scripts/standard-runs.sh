@@ -10,6 +10,11 @@
 #                                                  STUDY --preset standard` there in the
 #                                                  background (nice 10, -j 2; a copy of
 #                                                  build/jamflow, so rebuilding does not touch it)
+#   bash scripts/standard-runs.sh start STUDY... --reuse DIR   the same, passing the options
+#                                                  after the studies to `jamflow study` (here:
+#                                                  copy in the finished runs of the same scenes
+#                                                  from DIR, e.g. out/running/hard-sphere for
+#                                                  finite-size's N = 1000 points)
 #   bash scripts/standard-runs.sh save STUDY...   stop it (SIGTERM: every run checkpoints) and
 #                                                  copy its folder back, without lock files
 #   bash scripts/standard-runs.sh status          each running study's last progress line
@@ -28,8 +33,14 @@ study_pid() {  # the study process of STUDY started here, if it runs
 
 case "$cmd" in
   start)
-    [ $# -gt 0 ] || { echo "usage: $0 start STUDY..." >&2; exit 2; }
-    for s in "$@"; do
+    [ $# -gt 0 ] || { echo "usage: $0 start STUDY... [--reuse DIR]" >&2; exit 2; }
+    studies=()
+    while [ $# -gt 0 ] && [ "${1#--}" = "$1" ]; do
+      studies+=("$1")
+      shift
+    done
+    extra=("$@")  # options for `jamflow study`
+    for s in "${studies[@]}"; do
       [ -d "$root/studies/$s" ] || { echo "standard-runs: no study '$s' in studies/" >&2; exit 2; }
       if [ -n "$(study_pid "$s")" ]; then
         echo "standard-runs: $s runs already (pid $(study_pid "$s"))"
@@ -42,7 +53,7 @@ case "$cmd" in
       fi
       cp "$root/build/jamflow" "$work/jamflow-$s"
       (cd "$work" && nohup nice -n 10 "$work/jamflow-$s" study "$s" --preset standard \
-        --out "$work/$s" -j 2 >>"$work/$s.log" 2>&1 &)
+        --out "$work/$s" -j 2 "${extra[@]}" >>"$work/$s.log" 2>&1 &)
       echo "standard-runs: $s started in $work/$s (log $work/$s.log)"
     done
     ;;

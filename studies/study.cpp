@@ -63,6 +63,10 @@ int study_main(const std::vector<std::string>& args) {
   app.add_flag("--report-only", opt.report_only,
                "rebuild the analysis and report from OUT/table.csv without running points "
                "(hard-sphere, finite-size, soft-rheology, olsson-teitel)");
+  app.add_option("--reuse", opt.reuse,
+                 "folder of other sweeps (repeatable): finished replicas of the very same scene "
+                 "are copied in, not rerun (study paper passes its own output folder)")
+      ->check(reuse_folder());
   app.add_option("--only", opt.only, "study paper: run only these studies (in its order)")
       ->delimiter(',');
   std::vector<std::string> rev(args.rbegin(), args.rend());

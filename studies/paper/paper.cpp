@@ -246,7 +246,7 @@ int run(const StudyOptions& options) {
     }
     StudyOptions sub = options;
     sub.out_dir = dir.string();
-    sub.reuse = {out.string()};
+    sub.reuse.push_back(out.string());  // and the folders given with --reuse
     sub.tally = &tally;
     if (options.report_only) {
       // Rebuild what can be rebuilt from the tables in OUT/<study>; run nothing.

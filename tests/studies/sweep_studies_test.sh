@@ -5,7 +5,7 @@
 #  - the analysis in the study is `jamflow analyze hard-sphere` on the collected table: the same
 #    JSON (or the same failure) as running analyze on that table by hand;
 #  - a rerun recomputes nothing, and --dry-run then counts every run finished and nothing
-#    left; --dry-run of every preset gives a point count and CPU-hours;
+#    left; another folder's run with --reuse copies every run in and gives the same table; --dry-run of every preset gives a point count and CPU-hours;
 #  - the studies in stages (timestep, stability, softness, ensemble) count every stage with
 #    --dry-run and write the first stage's job array with --slurm.
 #  - soft-rheology and olsson-teitel (quick) write their report, HDF5 file and figures, and
@@ -89,6 +89,21 @@ PY
   echo "$line" | grep -q "; $runs finished, about 0 CPU-hours left" &&
     ok "$study: dry-run after the run: $runs finished, nothing left" ||
     bad "$study: dry-run after the run: $line"
+  # --reuse: another folder's study copies in the finished replicas of the very same scenes (the
+  # finite-size preset reuses the hard-sphere one's N = 1000 points this way) and computes
+  # nothing; its table is the same.
+  "$jamflow" study "$study" --preset quick --out "$work/$study-reused" --reuse "$out" -j 2 \
+    --no-plots > /dev/null 2> reuse.err
+  mkdir -p "$work/$study-table"
+  $py "$src/tests/studies/quick_numbers.py" --store "$out/table.csv" "$work/$study-table/table.csv"
+  if grep -q "sweep $study: $runs replicas reused from finished runs of the same scene" reuse.err &&
+    $py "$src/tests/studies/quick_numbers.py" "$work/$study-table" "$work/$study-reused" table.csv \
+      > /dev/null; then
+    ok "$study: --reuse copies all $runs runs in, the same table"
+  else bad "$study: --reuse: $(grep sweep reuse.err | tail -2)"; fi
+  "$jamflow" study "$study" --preset quick --out "$work/x" --reuse "$work/nowhere" > /dev/null 2> reuse.err
+  [ $? -eq 2 ] && grep -q "is not a folder; allowed a folder of other sweeps" reuse.err &&
+    ok "$study: --reuse of no folder is a one-line error" || bad "$study: --reuse nowhere: $(cat reuse.err)"
 done
 
 # The soft-rheology and olsson-teitel studies: the sweep(s), the report, the figures, and the
