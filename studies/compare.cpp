@@ -216,7 +216,7 @@ ComparePlan parse_compare(const std::string& text, const std::string& source,
         "base",        "prepare",         "run",
         "setting",     "reference",       "replicas",
         "observables", "tolerance_sigma", "relative_tolerance",
-        "case"};
+        "case",        "diagnose"};
     if (std::find(kKeys.begin(), kKeys.end(), key) == kKeys.end())
       throw ConfigError(source + ": unknown key " + key + " = " + show(v) + "; allowed " +
                         join(kKeys));
@@ -251,6 +251,11 @@ ComparePlan parse_compare(const std::string& text, const std::string& source,
   ConfigSection top_keys("compare file", &top);
   plan.replicas = top_keys.integer("replicas", 1, 1, 1000);
   plan.tolerance_sigma = top_keys.number("tolerance_sigma", 2.0, Range::positive());
+  if (const toml::node* d = top.get("diagnose")) {
+    if (!d->is_boolean())
+      throw ConfigError(where + "diagnose = " + show(*d) + "; allowed true or false");
+    plan.diagnose = d->as_boolean()->get();
+  }
   const std::vector<std::string>& allowed_obs = compare_observables();
   if (const toml::node* obs = top.get("observables")) {
     const toml::array* a = obs->as_array();
@@ -481,6 +486,47 @@ void check_plan(ComparePlan& plan, const std::string& where) {
   }
 }
 
+// A case's `settings = ["label", ...]`: only those settings run in it (the reference and the
+// settings others continue from among them), in the file's order.
+void select_settings(ComparePlan& c, const toml::node& v, const std::string& where) {
+  const toml::array* a = v.as_array();
+  std::vector<std::string> labels;
+  for (const auto& s : c.settings)
+    labels.push_back(s.label);
+  if (!a || a->empty())
+    throw ConfigError(where + "settings = " + show(v) +
+                      "; allowed a list of setting labels: " + join(labels));
+  std::vector<bool> keep(c.settings.size(), false);
+  for (const auto& x : *a) {
+    const auto label = x.value<std::string>();
+    const auto it = label ? std::find(labels.begin(), labels.end(), *label) : labels.end();
+    if (it == labels.end())
+      throw ConfigError(where + "settings: " + show(x) + " is not a setting; allowed " +
+                        join(labels));
+    keep[std::size_t(it - labels.begin())] = true;
+  }
+  std::vector<std::size_t> new_index(c.settings.size(), 0);
+  std::vector<CompareSetting> kept;
+  for (std::size_t i = 0; i < c.settings.size(); ++i) {
+    if (!keep[i])
+      continue;
+    const CompareSetting& s = c.settings[i];
+    if (!s.from.empty() && !keep[s.from_index])
+      throw ConfigError(where + "settings: '" + s.label + "' continues from '" + s.from +
+                        "', which is not among them; allowed both");
+    new_index[i] = kept.size();
+    kept.push_back(s);
+  }
+  if (!keep[c.reference])
+    throw ConfigError(where + "settings: the reference '" + labels[c.reference] +
+                      "' is not among them; allowed a list with the reference");
+  for (auto& s : kept)
+    if (!s.from.empty())
+      s.from_index = new_index[s.from_index];
+  c.reference = new_index[c.reference];
+  c.settings = std::move(kept);
+}
+
 // One [[case]]: the plan with the case's state point (system.N, phi, alpha; ensemble.*;
 // shear.rate) over the base, and its own [run] lengths and [prepare] t, checked whole.
 ComparePlan case_plan(const ComparePlan& plan, const toml::table& t, const std::string& label,
@@ -494,12 +540,16 @@ ComparePlan case_plan(const ComparePlan& plan, const toml::table& t, const std::
     const std::string section(k.str());
     if (section == "label")
       continue;
+    if (section == "settings") {
+      select_settings(c, v, where);
+      continue;
+    }
     const toml::table* keys = v.as_table();
     static const std::vector<std::string> kSections = {"system", "ensemble", "shear", "run",
                                                        "prepare"};
     if (!keys || std::find(kSections.begin(), kSections.end(), section) == kSections.end())
       throw ConfigError(where + "key " + section + " = " + show(v) +
-                        "; allowed label and the tables " + join(kSections));
+                        "; allowed label, settings and the tables " + join(kSections));
     if (section == "prepare" && !plan.init.empty())
       throw ConfigError(where + "[prepare] with [prepare] init = \"" + plan.init +
                         "\"; allowed with a preparation run ([prepare] t)");
@@ -616,8 +666,11 @@ double summary_value(const DiagnosedRun& r, const char* key) {
 
 // Why a finished run is not stable: a failed run, or its stable verdict (energy balance, force
 // step correlation; driver/verdicts.hpp) failed. Empty: stable.
-std::string unstable_reason(const DiagnosedRun& r) {
+// With diagnose, the diagnostic window's classification too (oscillating, diverged).
+std::string unstable_reason(const DiagnosedRun& r, bool diagnose) {
   if (!r.result.status.is_complete())
+    return r.verdict_text();
+  if (diagnose && (r.cls.verdict == Verdict::kOscillating || r.cls.verdict == Verdict::kDiverged))
     return r.verdict_text();
   const auto it = r.result.summary.verdicts.find("stable");
   if (it != r.result.summary.verdicts.end() && it->second.failed())
@@ -648,7 +701,7 @@ analysis::CompareInput analysis_input(const ComparePlan& plan,
     si.particles = double(plan.settings[s].n);
     bool all_complete = true;
     for (const auto& r : runs[s].replicas) {
-      const std::string why = unstable_reason(r);
+      const std::string why = unstable_reason(r, plan.diagnose);
       if (!why.empty() && si.why_unstable.empty())
         si.why_unstable = r.label + ": " + why;
       si.stable = si.stable && why.empty();
@@ -823,6 +876,9 @@ void write_h5(const std::string& path, const ComparePlan& plan,
       const std::string rg = g + "/replicas/" + std::to_string(k);
       w.dataset(rg + "/time", rr.result.series.column(&Sample::time));
       w.attr(rg, "t_eq", rr.t_eq);
+      w.attr(rg, "verdict", rr.verdict_text());
+      if (plan.diagnose)
+        w.attr(rg, "lanes", static_cast<std::int64_t>(rr.cls.laned));
       for (const auto& name : plan.observables) {
         const Field f = field_of(name, rr.gdot);
         std::vector<double> x = rr.result.series.column(f.member);
@@ -982,11 +1038,30 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
          std::isfinite(sr.step_correlation) ? num(sr.step_correlation, 3) : "—",
          std::to_string(sr.steady_failed) + " / " + std::to_string(sr.replicas.size()),
          std::to_string(sr.decorrelated_failed) + " / " + std::to_string(sr.replicas.size())});
+    if (plan.diagnose) {
+      // Each replica's classification after its diagnostic window, the same ones counted once.
+      std::map<std::string, int> seen;
+      for (const DiagnosedRun& d : sr.replicas)
+        ++seen[verdict_name(d.cls.verdict) + (d.cls.laned ? ", lanes" : "")];
+      std::string cell;
+      for (const auto& [text, count] : seen)
+        cell += (cell.empty() ? "" : "; ") + text + " × " + std::to_string(count);
+      rows.back().push_back(cell.empty() ? "—" : cell);
+    }
   }
-  md += markdown_table({"setting", "verdict", "energy balance", "force step correlation",
-                        "not steady", "blocks < 2τ"},
-                       rows) +
-        "\n";
+  std::vector<std::string> stability_header = {"setting",        "verdict",
+                                               "energy balance", "force step correlation",
+                                               "not steady",     "blocks < 2τ"};
+  if (plan.diagnose)
+    stability_header.push_back("diagnostic window (replicas)");
+  md += markdown_table(stability_header, rows) + "\n";
+  if (plan.diagnose)
+    md +=
+        "Diagnostic window (diagnose = true): after each run, 256 steps sampled at every step "
+        "classify it as stable, oscillating (force step correlation < 0.9, or an energy "
+        "deficit of a fixed-step integrator) or diverged, and flag lanes "
+        "(studies/stability/README.md); an oscillating or diverged replica makes its setting "
+        "unstable.\n\n";
 
   // Verdicts that weaken the comparison.
   int short_blocks = 0, drifting = 0, total = 0;
@@ -1311,7 +1386,7 @@ int run_compare(const ComparePlan& top, const StudyOptions& options,
           r.scene = scene.text();
           r.seed = plan.seed + k;
           r.init = init;
-          r.window = false;
+          r.window = plan.diagnose;
           const toml::table* run = scene.table("run");
           const toml::node* budget = run ? run->get("max_force_evaluations") : nullptr;
           r.budget = budget && budget->is_integer() ? budget->as_integer()->get() : 0;

@@ -62,9 +62,14 @@ struct ComparePlan {
   std::vector<double> relative_tolerance;  // per observable (0: none)
   toml::table run;                         // [run] keys for every setting (t_eq, t_av, ...)
   std::int64_t blocks = 20;
+  // diagnose = true: every setting's run is followed by the diagnostic window
+  // (studies/diagnostics.hpp: 256 steps sampled at every step), which classifies it as stable,
+  // oscillating or diverged and flags lanes; oscillating or diverged makes a setting unstable.
+  bool diagnose = false;
 
   // [[case]]: the same comparison at several state points. Each case is a plan of its own (the
-  // base scene, [run] lengths and [prepare] t overridden by the case; `label` its label), run
+  // base scene, [run] lengths and [prepare] t overridden by the case, `settings` a subset of the
+  // settings; `label` its label), run
   // together: each stage of every case is one sweep stage, and each case reports into
   // OUT/<label>/, with OUT/report.md and OUT/table.csv over all of them. Empty: one comparison.
   std::vector<ComparePlan> cases;

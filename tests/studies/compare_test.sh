@@ -15,7 +15,9 @@
 #    another's replica k in a third stage, at that setting's mean phi; bad start and from values
 #    and mean_phi at constant pressure are one-line errors.
 #  - [[case]]: the same settings at two state points run together, each case a report of its
-#    own, one joint table with a case column; bad case keys are one-line errors.
+#    own (the second a subset of the settings), one joint table with a case column; with
+#    diagnose = true every run is classified by its diagnostic window; bad case keys are
+#    one-line errors.
 #  - on the sweep engine's other runners: --slurm writes the next stage's job array, and under
 #    mpirun -n 2 the comparison gives the local one's numbers.
 # usage: compare_test.sh JAMFLOW_BINARY SOURCE_DIR
@@ -310,6 +312,7 @@ cat > cases.toml <<'TOML'
 reference = "euler-0.05"
 replicas = 2
 observables = ["sigma_xy"]
+diagnose = true
 [base.system]
 N = 64
 phi = 0.60
@@ -335,10 +338,14 @@ label = "euler-0.05"
 [[setting]]
 label = "euler-1"
 integrator.dt = 1.0
+[[setting]]
+label = "euler-0.1"
+integrator.dt = 0.1
 [[case]]
 label = "phi0.60"
 [[case]]
 label = "phi0.64-slow"
+settings = ["euler-0.05", "euler-1"]
 system = { phi = 0.64 }
 shear = { rate = 1e-3 }
 run = { t_av = 80.0 }
@@ -346,9 +353,14 @@ TOML
 "$jamflow" compare cases.toml --out cases.out -j 2 -q --no-plots > cases.txt 2>&1
 rc=$?
 # Each case is a comparison of its own at its state point, with its own report and a row per
-# setting in the joint table; the unstable dt = 1 is flagged in both.
+# setting it runs in the joint table (the second case runs two of the three); with diagnose the
+# diagnostic window classifies every run, and the unstable dt = 1 is flagged in both.
 if [ "$rc" -eq 0 ] && [ -s cases.out/phi0.60/report.md ] && [ -s cases.out/phi0.64-slow/compare.h5 ] &&
-  [ "$(tail -n +2 cases.out/table.csv | wc -l)" -eq 4 ] && head -1 cases.out/table.csv | grep -q '^case,setting,' &&
+  [ "$(tail -n +2 cases.out/table.csv | wc -l)" -eq 5 ] && head -1 cases.out/table.csv | grep -q '^case,setting,' &&
+  [ ! -d "cases.out/settings/runs/points/phi0.64-slow.euler-0.1_r0" ] &&
+  grep -q '| diagnostic window (replicas) |' cases.out/phi0.60/report.md &&
+  ! grep -Eq '\| euler-0.05 \| .*(oscillating|diverged)' cases.out/phi0.60/report.md &&
+  grep -Eq '\| euler-1 \| unstable: .*\| (oscillating|diverged)' cases.out/phi0.60/report.md &&
   [ -d "cases.out/settings/runs/points/phi0.64-slow.euler-1_r1" ] &&
   grep -q 'phi0.64-slow.*| euler-1' cases.out/report.md &&
   /usr/bin/python3 - cases.out <<'PY'
@@ -363,6 +375,9 @@ for case, phi, rate, t_av in (("phi0.60", 0.60, 1e-2, 60.0), ("phi0.64-slow", 0.
         assert abs(f["timeseries/phi"][0] - phi) < 1e-9, f["timeseries/phi"][0]
     with h5py.File(f"{out}/{case}/compare.h5") as f:
         assert f["settings/euler-1"].attrs["stable"] == 0
+        v = f["settings/euler-1/replicas/0"].attrs["verdict"]
+        v = v.decode() if isinstance(v, bytes) else v
+        assert v.startswith("oscillating") or v.startswith("diverged"), v
 PY
 then ok "[[case]]: two state points run together, each with its report, the table has a case column"
 else bad "cases: exit $rc, $(tail -3 cases.txt)"; fi
@@ -372,6 +387,12 @@ sed 's/^label = "phi0.64-slow"$/label = "phi0.60"/' cases.toml > bad.toml
 expect_error "a case label twice" 'label "phi0.60" given twice; allowed unique labels'
 sed 's/^run = { t_av = 80.0 }$/run = { t_av = -1.0 }/' cases.toml > bad.toml
 expect_error "a case's t_av" "'phi0.64-slow': \[run\] t_av = -1 is out of range; allowed > 0"
+sed 's/^settings = \["euler-0.05", "euler-1"\]$/settings = ["euler-1"]/' cases.toml > bad.toml
+expect_error "a case without its reference" "settings: the reference 'euler-0.05' is not among them"
+sed 's/^settings = \["euler-0.05", "euler-1"\]$/settings = ["euler-0.05", "euler-9"]/' cases.toml > bad.toml
+expect_error "a case's unknown setting" 'settings: .euler-9. is not a setting; allowed euler-0.05, euler-1, euler-0.1'
+sed 's/^diagnose = true$/diagnose = 1/' cases.toml > bad.toml
+expect_error "diagnose not a bool" "diagnose = 1; allowed true or false"
 
 # ---- The sweep engine's other runners: a Slurm job array for the next stage, and MPI ranks.
 "$jamflow" compare small.toml --slurm --out slurm.out > slurm.txt 2>&1
