@@ -149,9 +149,40 @@ const std::vector<std::string>& compare_observables() {
   return kObservables;
 }
 
-Scene ComparePlan::setting_scene(std::size_t s) const {
+// The typical overlap delta = P^(1/(alpha_r - 1)) (SPEC §4) of a scene: its imposed pressure at
+// constant pressure, else `measured` (the mean P_hat of the runs it starts from), else 1e-3 (a
+// stand-in where nothing has run: the checks before the runs, --dry-run).
+double typical_overlap(const Scene& scene, double measured) {
+  const toml::table* sys = scene.table("system");
+  const toml::node* a = sys ? sys->get("alpha") : nullptr;
+  const double alpha = a && a->is_number() ? a->value<double>().value_or(2.0) : 2.0;
+  const toml::table* ens = scene.table("ensemble");
+  const toml::node* kind = ens ? ens->get("kind") : nullptr;
+  const toml::node* p = ens ? ens->get("pressure") : nullptr;
+  double pressure = measured;
+  if (kind && kind->value<std::string>() == std::string("constant_pressure") && p && p->is_number())
+    pressure = p->value<double>().value_or(measured);
+  if (!(std::isfinite(pressure) && pressure > 0.0))
+    pressure = 1e-3;
+  return std::clamp(std::pow(pressure, 1.0 / (alpha - 1.0)), 1e-9, 1.0);
+}
+
+Scene ComparePlan::setting_scene(std::size_t s, double measured_pressure) const {
   Scene scene = base;
   apply_overrides(scene, settings[s].overrides);
+  // integrator.atol_overlaps = x: atol = x delta, the typical overlap at this state point.
+  if (const toml::table* in = scene.table("integrator"); in && in->contains("atol_overlaps")) {
+    toml::table integrator = *in;
+    const double x = integrator["atol_overlaps"].value<double>().value_or(-1.0);
+    if (!(x > 0.0))
+      throw ConfigError("integrator.atol_overlaps = " + show(*integrator.get("atol_overlaps")) +
+                        "; allowed a number > 0");
+    if (integrator.contains("atol"))
+      throw ConfigError("integrator.atol with integrator.atol_overlaps; allowed one of them");
+    integrator.erase("atol_overlaps");
+    integrator.insert("atol", x * typical_overlap(scene, measured_pressure));
+    scene.set_section("integrator", std::move(integrator));
+  }
   toml::table r = scene.table("run") ? *scene.table("run") : toml::table{};
   for (const auto& [k, v] : run)
     r.insert_or_assign(k.str(), v);
@@ -452,6 +483,14 @@ void check_plan(ComparePlan& plan, const std::string& where) {
                         "\" with N = " + std::to_string(s.n) + " against its " +
                         std::to_string(plan.settings[s.from_index].n) + "; allowed the same N");
   }
+  // Every scene through the checks of `jamflow run`, before anything runs.
+  for (std::size_t s = 0; s < plan.settings.size(); ++s) {
+    try {
+      (void)parse_run_spec(plan.setting_scene(s));
+    } catch (const ConfigError& e) {
+      throw ConfigError(where + "[[setting]] '" + plan.settings[s].label + "': " + e.what());
+    }
+  }
   for (const auto& s : plan.settings) {
     if (!s.start_mean_phi)
       continue;
@@ -467,14 +506,6 @@ void check_plan(ComparePlan& plan, const std::string& where) {
                         "constant-volume setting (the piston sets phi otherwise)");
   }
 
-  // Every scene through the checks of `jamflow run`, before anything runs.
-  for (std::size_t s = 0; s < plan.settings.size(); ++s) {
-    try {
-      (void)parse_run_spec(plan.setting_scene(s));
-    } catch (const ConfigError& e) {
-      throw ConfigError(where + "[[setting]] '" + plan.settings[s].label + "': " + e.what());
-    }
-  }
   if (plan.init.empty()) {
     for (std::int64_t n : plan.sizes()) {
       try {
@@ -1140,14 +1171,16 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
   return md;
 }
 
-// The steady finished runs' mean of their window-mean phi (all finished runs' if none is
-// steady): the packing fraction a start = "mean_phi" setting runs at. NaN if none finished.
-double pooled_phi(const std::vector<const DiagnosedRun*>& runs) {
+// The steady finished runs' mean of a summary value (all finished runs' if none is steady):
+// of phi, the packing fraction a start = "mean_phi" setting runs at; of the pressure, the one
+// atol_overlaps takes at constant volume. NaN if none finished.
+double pooled(const std::vector<const DiagnosedRun*>& runs, const char* key) {
   std::vector<double> steady, all;
   for (const DiagnosedRun* r : runs) {
-    if (!r->result.status.is_complete() || r->final_xyz.empty())
+    if (!r || !r->result.status.is_complete() || r->final_xyz.empty() ||
+        r->final_xyz == kCountedStart)
       continue;
-    all.push_back(r->value("phi"));
+    all.push_back(r->value(key));
     const auto& v = r->result.summary.verdicts;
     const auto it = v.find("steady");
     if (!(it != v.end() && it->second.failed()))
@@ -1191,7 +1224,7 @@ std::string start_of(const ComparePlan& plan, std::size_t s, std::size_t k,
     return {};
   if (!plan.settings[s].start_mean_phi || r->final_xyz == kCountedStart)
     return r->final_xyz;
-  const double phi = pooled_phi(source);
+  const double phi = pooled(source, "phi");
   const bool from_setting = !plan.settings[s].from.empty();
   return dilated_start(r->final_xyz, phi,
                        out_dir + (from_setting ? "/settings/mean_phi" : "/prepare/mean_phi"),
@@ -1382,7 +1415,7 @@ int run_compare(const ComparePlan& top, const StudyOptions& options,
             continue;  // its source failed: reported, and the setting did not run this replica
           RunRequest r;
           r.label = c.prefix + set.label + "_r" + std::to_string(k);
-          Scene scene = plan.setting_scene(s);
+          Scene scene = plan.setting_scene(s, pooled(source, "pressure"));
           r.scene = scene.text();
           r.seed = plan.seed + k;
           r.init = init;

@@ -12,6 +12,7 @@
 #pragma once
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -75,8 +76,12 @@ struct ComparePlan {
   std::vector<ComparePlan> cases;
   std::string label;
 
-  // The scene of a setting (base + overrides + [run]) and of the preparation at N particles.
-  Scene setting_scene(std::size_t s) const;
+  // The scene of a setting (base + overrides + [run]) and of the preparation at N particles. A
+  // setting's integrator.atol_overlaps = x becomes atol = x delta, delta = P^(1/(alpha_r - 1))
+  // the typical overlap, with P the imposed pressure at constant pressure, else
+  // `measured_pressure` (the mean P_hat of the runs the setting starts from; NaN: 1e-3 stands in).
+  Scene setting_scene(std::size_t s,
+                      double measured_pressure = std::numeric_limits<double>::quiet_NaN()) const;
   Scene prepare_scene(std::int64_t n) const;
   // The distinct N of the settings, in order of first appearance.
   std::vector<std::int64_t> sizes() const;

@@ -12,7 +12,8 @@
 #    files (their dry runs).
 #  - start = "mean_phi": a constant-volume setting runs at one packing fraction, the mean of its
 #    preparations' window-mean phi over the steady ones; from = "np": a setting continues from
-#    another's replica k in a third stage, at that setting's mean phi; bad start and from values
+#    another's replica k in a third stage, at that setting's mean phi; integrator.atol_overlaps
+#    sets atol in units of the typical overlap; bad start and from values
 #    and mean_phi at constant pressure are one-line errors.
 #  - [[case]]: the same settings at two state points run together, each case a report of its
 #    own (the second a subset of the settings), one joint table with a case column; with
@@ -292,6 +293,41 @@ if [ "$rc" -eq 0 ] && [ -d ens.out/continued/runs/points/nv-from-np_r1 ] &&
   grep -q '`nv-from-np` continues from replica k of `np`' ens.out/report.md; then
   ok "from = \"np\": a third stage continues from np's replicas at their mean phi"
 else bad "from: exit $rc, $(tail -3 from.txt)"; fi
+# integrator.atol_overlaps = x: atol = x delta, delta = P (alpha_r = 2) the typical overlap: the
+# imposed P at constant pressure, the mean P_hat of the runs it continues from at constant volume.
+cat from.toml - > atol.toml <<'TOML'
+[[setting]]
+label = "rkc-np"
+integrator = { kind = "rkc", atol_overlaps = 0.1 }
+[[setting]]
+label = "rkc-nv"
+from = "np"
+start = "mean_phi"
+ensemble = { kind = "constant_volume" }
+integrator = { kind = "rkc", atol_overlaps = 0.1 }
+TOML
+"$jamflow" compare atol.toml --out ens.out -j 2 -q --no-plots > atol.txt 2>&1
+rc=$?
+if [ "$rc" -eq 0 ] && /usr/bin/python3 - ens.out <<'PY'
+import sys, tomllib, h5py, numpy as np
+out = sys.argv[1]
+def atol(path):
+    with open(path, "rb") as f:
+        return tomllib.load(f)["integrator"]["atol"]
+assert abs(atol(f"{out}/settings/runs/points/rkc-np_r0/r0.toml") - 0.1 * 1e-2) < 1e-15
+p, steady = [], []
+for k in (0, 1):
+    with h5py.File(f"{out}/settings/runs/points/np_r{k}/r0.h5") as f:
+        p.append(f["summary"].attrs["pressure"])
+        steady.append(f["summary"].attrs["steady"] == 1)
+use = [x for x, s in zip(p, steady) if s] or p
+got = atol(f"{out}/continued/runs/points/rkc-nv_r1/r0.toml")
+assert abs(got - 0.1 * np.mean(use)) < 1e-12 * got, (got, p, steady)
+PY
+then ok "atol_overlaps: atol = 0.1 P imposed, and 0.1 <P_hat> of the source at constant volume"
+else bad "atol_overlaps: exit $rc, $(tail -3 atol.txt)"; fi
+sed 's/^integrator = { kind = "rkc", atol_overlaps = 0.1 }$/integrator = { kind = "rkc", atol_overlaps = 0.1, atol = 1e-3 }/' atol.toml > bad.toml
+expect_error "atol and atol_overlaps" "bad.toml: \[\[setting\]\] 'rkc-np': integrator.atol with integrator.atol_overlaps; allowed one of them"
 sed 's/^from = "np"$/from = "nv-from-np"/' from.toml > bad.toml
 expect_error "from a later setting" 'from = "nv-from-np"; allowed the label of an earlier \[\[setting\]\]: np, nv$'
 cat from.toml - > bad.toml <<'TOML'
