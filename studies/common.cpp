@@ -21,22 +21,6 @@
 
 namespace jamflow::studies {
 
-RunSpec spec_from_toml(const std::string& toml, const std::vector<std::string>& overrides,
-                       const std::string& source) {
-  Scene scene = Scene::parse(toml, source);
-  for (const auto& o : overrides)
-    scene.set(o);
-  return parse_run_spec(scene);
-}
-
-RunSpec spec_from_toml(const std::string& toml, const IntegratorSettings& integrator,
-                       const std::vector<std::string>& overrides, const std::string& source) {
-  Scene scene = Scene::parse(toml, source);
-  for (const auto& o : overrides)
-    scene.set(o);
-  return parse_run_spec(scene, integrator);
-}
-
 double hard_sphere_phi(double j, std::int64_t n) {
   return seed::hard_sphere_phi(j, double(n));
 }

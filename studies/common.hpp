@@ -1,5 +1,5 @@
-// Shared toolkit for studies: run scenes given as TOML text, collect summaries, write
-// markdown tables and call the plotting scripts (Debian's python3 with matplotlib).
+// Shared toolkit for studies: the seed's start packing fractions, markdown tables and numbers,
+// and the plotting scripts (Debian's python3 with matplotlib).
 #pragma once
 #include <cstdint>
 #include <map>
@@ -10,15 +10,6 @@
 #include "studies/study.hpp"
 
 namespace jamflow::studies {
-
-// Parses and validates a scene given as TOML text (plus "section.key=value" overrides).
-RunSpec spec_from_toml(const std::string& toml, const std::vector<std::string>& overrides = {},
-                       const std::string& source = "<study scene>");
-// The same for a scene without [integrator] and typed integrator settings, which the run uses
-// exactly as given (no TOML text in between).
-RunSpec spec_from_toml(const std::string& toml, const IntegratorSettings& integrator,
-                       const std::vector<std::string>& overrides = {},
-                       const std::string& source = "<study scene>");
 
 // The seed's hard-sphere law phi(J) = phi_J - C_phi J^b_phi at N particles, with its finite-size
 // forms O(N) = O_inf + A_O N^-alpha_O (Table 2, SPEC §5); below phi_J and at J > 0.
