@@ -8,8 +8,8 @@
 #    the ranking follows the paired errors; report, HDF5 and plots are written;
 #  - --dry-run counts the stages; a SIGTERM stops the sweep, and the same command again does
 #    not redo the runs that had finished.
-#  - the examples examples/compare_rkc_euler.toml and compare_ensembles.toml are valid compare
-#    files (their dry runs).
+#  - the examples examples/compare_rkc_euler.toml, compare_ensembles.toml and
+#    compare_two_pressures.toml are valid compare files (their dry runs).
 #  - start = "mean_phi": a constant-volume setting runs at one packing fraction, the mean of its
 #    preparations' window-mean phi over the steady ones; from = "np": a setting continues from
 #    another's replica k in a third stage, at that setting's mean phi; integrator.atol_overlaps
@@ -131,6 +131,9 @@ echo "$example" | grep -q "compare (stage settings): 15 points" &&
 example=$("$jamflow" compare "$source_dir/examples/compare_ensembles.toml" --out ensembles --dry-run 2>&1)
 echo "$example" | grep -q "compare (stage settings): 6 points" &&
   ok "the ensemble example's dry run counts its 6 runs" || bad "ensemble example: $example"
+example=$("$jamflow" compare "$source_dir/examples/compare_two_pressures.toml" --out two --dry-run 2>&1)
+echo "$example" | grep -q "compare (stage settings): 36 points" &&
+  ok "the two-pressure example's dry run counts its 36 runs" || bad "two-pressure example: $example"
 
 # ---- The whole comparison.
 "$jamflow" compare small.toml --out full -j 2 -q >full.txt 2>full.err
