@@ -54,6 +54,13 @@ std::string num(double value, int digits) {
   return buf;
 }
 
+std::string join(const std::vector<std::string>& items) {
+  std::string s;
+  for (const auto& x : items)
+    s += (s.empty() ? "" : ", ") + x;
+  return s;
+}
+
 std::string pm(double value, double error, int digits) {
   return num(value, digits) + " ± " + num(error, 2);
 }

@@ -23,6 +23,9 @@ double phi_start(double j, std::int64_t n, double below = 0.0, double phi_max = 
 std::string markdown_table(const std::vector<std::string>& header,
                            const std::vector<std::vector<std::string>>& rows);
 
+// "a, b, c".
+std::string join(const std::vector<std::string>& items);
+
 // "1.234e-05 +- 6.7e-07" style formatting.
 std::string pm(double value, double error, int digits = 4);
 std::string num(double value, int digits = 4);
