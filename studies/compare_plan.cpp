@@ -574,13 +574,32 @@ ComparePlan case_plan(const ComparePlan& plan, const toml::table& t, const std::
               c.run.insert_or_assign(
                   key, sec.number(key, std::string(key) == "t_eq" ? Range::non_negative()
                                                                   : Range::positive()));
+          // A budget per run in force evaluations: per particle-step budgets differ with N.
+          if (sec.has("max_force_evaluations"))
+            c.run.insert_or_assign("max_force_evaluations",
+                                   sec.integer("max_force_evaluations", 0, 1000000000000000));
+          sec.finish();
         } else {
           if (sec.has("t"))
             c.prepare_t = sec.number("t", Range::positive());
           if (sec.has("sample_every"))
             c.prepare_sample_every = sec.number("sample_every", Range::positive());
+          // Its other keys override the preparation's scene, over the file's [prepare]: a stiff
+          // state point prepared at a smaller step, say.
+          const toml::table o = read_overrides(*keys, "prepare", {"t", "sample_every"}, false);
+          for (const auto& [sec_name, node] : o) {
+            const toml::table& add = *node.as_table();
+            toml::table* into = c.prepare_overrides.get_as<toml::table>(sec_name.str());
+            const toml::node* kind = add.get("kind");
+            const toml::node* old_kind = into ? into->get("kind") : nullptr;
+            if (!into || (kind && (!old_kind || show(*kind) != show(*old_kind)))) {
+              c.prepare_overrides.insert_or_assign(sec_name.str(), add);
+              continue;
+            }
+            for (const auto& [k, v] : add)
+              into->insert_or_assign(k.str(), v);
+          }
         }
-        sec.finish();
       } catch (const ConfigError& e) {
         throw ConfigError(where + e.what());
       }
@@ -594,7 +613,8 @@ ComparePlan case_plan(const ComparePlan& plan, const toml::table& t, const std::
           throw ConfigError(where + "key " + section + "." + key + " = " + show(v2) +
                             "; allowed system.N, system.phi, system.alpha, system.skin, "
                             "ensemble.*, shear.rate, run.t_eq, run.t_av, run.sample_every, "
-                            "prepare.t, prepare.sample_every");
+                            "run.max_force_evaluations, prepare.t, prepare.sample_every and "
+                            "the preparation's overrides");
       }
       base.insert(section, *keys);
     }

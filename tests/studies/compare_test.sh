@@ -16,7 +16,8 @@
 #    sets atol in units of the typical overlap; bad start and from values
 #    and mean_phi at constant pressure are one-line errors.
 #  - [[case]]: the same settings at two state points run together, each case a report of its
-#    own (the second a subset of the settings), one joint table with a case column; with
+#    own (the second a subset of the settings, its own preparation step and run budget), one
+#    joint table with a case column; with
 #    diagnose = true every run is classified by its diagnostic window; bad case keys are
 #    one-line errors.
 #  - on the sweep engine's other runners: --slurm writes the next stage's job array, and under
@@ -387,7 +388,8 @@ label = "phi0.64-slow"
 settings = ["euler-0.05", "euler-1"]
 system = { phi = 0.64 }
 shear = { rate = 1e-3 }
-run = { t_av = 80.0 }
+run = { t_av = 80.0, max_force_evaluations = 100000000 }
+prepare = { integrator = { dt = 0.02 } }
 TOML
 "$jamflow" compare cases.toml --out cases.out -j 2 -q --no-plots > cases.txt 2>&1
 rc=$?
@@ -403,7 +405,7 @@ if [ "$rc" -eq 0 ] && [ -s cases.out/phi0.60/report.md ] && [ -s cases.out/phi0.
   [ -d "cases.out/settings/runs/points/phi0.64-slow.euler-1_r1" ] &&
   grep -q 'phi0.64-slow.*| euler-1' cases.out/report.md &&
   /usr/bin/python3 - cases.out <<'PY'
-import sys, h5py
+import sys, tomllib, h5py
 out = sys.argv[1]
 for case, phi, rate, t_av in (("phi0.60", 0.60, 1e-2, 60.0), ("phi0.64-slow", 0.64, 1e-3, 80.0)):
     with h5py.File(f"{out}/settings/runs/points/{case}.euler-0.05_r0/r0.h5") as f:
@@ -412,6 +414,12 @@ for case, phi, rate, t_av in (("phi0.60", 0.60, 1e-2, 60.0), ("phi0.64-slow", 0.
         assert f"rate = {rate:g}".replace("0.001", "0.001") in scene or f"rate = {rate}" in scene, scene
         assert f"t_av = {t_av}" in scene, scene
         assert abs(f["timeseries/phi"][0] - phi) < 1e-9, f["timeseries/phi"][0]
+    with open(f"{out}/prepare/runs/points/{case}.prepare_r0/r0.toml", "rb") as f:
+        prep = tomllib.load(f)
+    assert prep["integrator"]["dt"] == (0.05 if case == "phi0.60" else 0.02), prep["integrator"]
+    with open(f"{out}/settings/runs/points/{case}.euler-1_r0/r0.toml", "rb") as f:
+        budget = tomllib.load(f)["run"]["max_force_evaluations"]
+    assert budget == (0 if case == "phi0.60" else 100000000), budget
     with h5py.File(f"{out}/{case}/compare.h5") as f:
         assert f["settings/euler-1"].attrs["stable"] == 0
         v = f["settings/euler-1/replicas/0"].attrs["verdict"]
@@ -424,12 +432,14 @@ sed 's/^system = { phi = 0.64 }$/system = { seed = 2 }/' cases.toml > bad.toml
 expect_error "a case's system.seed" "\[\[case\]\] 'phi0.64-slow': key system.seed = 2; allowed system.N, system.phi"
 sed 's/^label = "phi0.64-slow"$/label = "phi0.60"/' cases.toml > bad.toml
 expect_error "a case label twice" 'label "phi0.60" given twice; allowed unique labels'
-sed 's/^run = { t_av = 80.0 }$/run = { t_av = -1.0 }/' cases.toml > bad.toml
+sed 's/^run = { t_av = 80.0, max_force_evaluations = 100000000 }$/run = { t_av = -1.0 }/' cases.toml > bad.toml
 expect_error "a case's t_av" "'phi0.64-slow': \[run\] t_av = -1 is out of range; allowed > 0"
 sed 's/^settings = \["euler-0.05", "euler-1"\]$/settings = ["euler-1"]/' cases.toml > bad.toml
 expect_error "a case without its reference" "settings: the reference 'euler-0.05' is not among them"
 sed 's/^settings = \["euler-0.05", "euler-1"\]$/settings = ["euler-0.05", "euler-9"]/' cases.toml > bad.toml
 expect_error "a case's unknown setting" 'settings: .euler-9. is not a setting; allowed euler-0.05, euler-1, euler-0.1'
+sed 's/^prepare = { integrator = { dt = 0.02 } }$/prepare = { replicas = 2 }/' cases.toml > bad.toml
+expect_error "a case's preparation key" "bad.toml: \[\[case\]\] 'phi0.64-slow': prepare: unknown key replicas = 2; allowed t, sample_every, and overrides"
 sed 's/^diagnose = true$/diagnose = 1/' cases.toml > bad.toml
 expect_error "diagnose not a bool" "diagnose = 1; allowed true or false"
 
