@@ -628,37 +628,45 @@ struct CaseRuns {
   std::vector<std::vector<std::size_t>> at{2};
 };
 
-// Every setting and replica of one case, analysed, and its outputs written under c.out.
-struct CaseReport {
+// Every setting and replica of one case, with its analysis.
+struct CaseAnalysis {
+  std::vector<SettingRuns> runs;
   analysis::CompareResult result;
-  std::string csv;  // its table.csv
+  std::string csv;  // its table.csv, once written
 };
-CaseReport report_case(const CaseRuns& c, std::vector<std::vector<DiagnosedRun>>& done,
-                       const StudyOptions& options, const CompareReportSection& section) {
+CaseAnalysis analyse_case(const CaseRuns& c, std::vector<std::vector<DiagnosedRun>>& done) {
   const ComparePlan& plan = *c.plan;
-  std::vector<SettingRuns> runs(plan.settings.size());
+  CaseAnalysis a;
+  a.runs.resize(plan.settings.size());
   for (std::size_t s = 0; s < plan.settings.size(); ++s) {
     const Scene scene = plan.setting_scene(s);
-    runs[s].integrator = scene.section("integrator").text("kind", "?");
-    runs[s].ensemble = scene.section("ensemble").text("kind", "?");
+    a.runs[s].integrator = scene.section("integrator").text("kind", "?");
+    a.runs[s].ensemble = scene.section("ensemble").text("kind", "?");
   }
   for (int stage = 0; stage < 2; ++stage)
     for (std::size_t q = 0; q < c.index[stage].size(); ++q)
-      runs[c.index[stage][q].first].replicas.push_back(std::move(done[stage][c.at[stage][q]]));
-  for (auto& sr : runs)
+      a.runs[c.index[stage][q].first].replicas.push_back(std::move(done[stage][c.at[stage][q]]));
+  for (auto& sr : a.runs)
     diagnostics_of(sr);
-  const analysis::CompareResult res = analysis::compare(analysis_input(plan, runs));
+  a.result = analysis::compare(analysis_input(plan, a.runs));
+  return a;
+}
+
+// A case's outputs under c.out: table.csv, compare.h5, the plots and report.md (with `section`).
+void write_case(const CaseRuns& c, CaseAnalysis& a, const StudyOptions& options,
+                const std::string& section) {
+  const ComparePlan& plan = *c.plan;
+  const analysis::CompareResult& res = a.result;
   ensure_dir(c.out);
-  const std::string csv = table_csv(plan, runs, res);
-  write_text(c.out + "/table.csv", csv);
-  write_h5(c.out + "/compare.h5", plan, runs, res);
+  a.csv = table_csv(plan, a.runs, res);
+  write_text(c.out + "/table.csv", a.csv);
+  write_h5(c.out + "/compare.h5", plan, a.runs, res);
   const bool plotted =
       run_plot("compare/plot.py", {c.out + "/table.csv", c.out, c.out + "/compare.h5"}, options);
   std::vector<DiagnosedRun> preps;
   for (const DiagnosedRun* p : c.preps)
     preps.push_back(*p);
-  write_text(c.out + "/report.md",
-             report_md(plan, runs, res, plotted, preps, section ? section(plan, res) : ""));
+  write_text(c.out + "/report.md", report_md(plan, a.runs, res, plotted, preps, section));
   if (!options.quiet) {
     std::printf("compare %s: %zu settings -> %s/report.md\n", plan.name.c_str(),
                 plan.settings.size(), c.out.c_str());
@@ -668,13 +676,13 @@ CaseReport report_case(const CaseRuns& c, std::vector<std::vector<DiagnosedRun>>
     for (std::size_t s : res.unstable)
       std::printf("  unstable: %s\n", plan.settings[s].label.c_str());
   }
-  return {res, csv};
 }
 
 // With [[case]]: OUT/table.csv (every case's rows, a `case` column first) and OUT/report.md (per
-// case the recommendation and the unstable settings, and where its report is).
+// case the recommendation and the unstable settings, and where its report is; then `section`).
 void write_cases_summary(const ComparePlan& top, const std::vector<CaseRuns>& cases,
-                         const std::vector<CaseReport>& reports, const std::string& out) {
+                         const std::vector<CaseAnalysis>& analyses, const std::string& out,
+                         const std::string& section) {
   std::string csv,
       md = "# Comparison `" + top.name + "`: " + std::to_string(cases.size()) + " cases\n\n";
   md += "The same settings against the reference `" + top.settings[top.reference].label +
@@ -682,7 +690,7 @@ void write_cases_summary(const ComparePlan& top, const std::vector<CaseRuns>& ca
   std::vector<std::vector<std::string>> rows;
   for (std::size_t i = 0; i < cases.size(); ++i) {
     const ComparePlan& plan = *cases[i].plan;
-    const analysis::CompareResult& res = reports[i].result;
+    const analysis::CompareResult& res = analyses[i].result;
     std::vector<std::string> unstable;
     for (std::size_t s : res.unstable)
       unstable.push_back(plan.settings[s].label);
@@ -690,7 +698,7 @@ void write_cases_summary(const ComparePlan& top, const std::vector<CaseRuns>& ca
                     res.recommended >= 0 ? plan.settings[std::size_t(res.recommended)].label
                                          : std::string("none"),
                     unstable.empty() ? std::string("none") : join(unstable)});
-    std::istringstream in(reports[i].csv);
+    std::istringstream in(analyses[i].csv);
     std::string line;
     for (bool header = true; std::getline(in, line); header = false) {
       if (header && !csv.empty())
@@ -699,6 +707,8 @@ void write_cases_summary(const ComparePlan& top, const std::vector<CaseRuns>& ca
     }
   }
   md += markdown_table({"case", "cheapest within tolerance", "unstable"}, rows);
+  if (!section.empty())
+    md += "\n" + section;
   write_text(out + "/table.csv", csv);
   write_text(out + "/report.md", md);
 }
@@ -824,11 +834,29 @@ int run_compare(const ComparePlan& top, const StudyOptions& options,
   if (sweep::mpi_launched() && sweep::launched_rank() != 0)
     return 0;
 
-  std::vector<CaseReport> reports;
+  std::vector<CaseAnalysis> analyses;
   for (const CaseRuns& c : cases)
-    reports.push_back(report_case(c, done, options, section));
+    analyses.push_back(analyse_case(c, done));
+  std::string own;  // the study's section, from every case's outcome
+  if (section) {
+    std::vector<CompareCaseOutcome> outcomes;
+    for (std::size_t i = 0; i < cases.size(); ++i) {
+      CompareCaseOutcome o;
+      o.plan = cases[i].plan;
+      o.result = &analyses[i].result;
+      for (const SettingRuns& sr : analyses[i].runs) {
+        o.runs.emplace_back();
+        for (const DiagnosedRun& r : sr.replicas)
+          o.runs.back().push_back(&r);
+      }
+      outcomes.push_back(std::move(o));
+    }
+    own = section(outcomes);
+  }
+  for (std::size_t i = 0; i < cases.size(); ++i)
+    write_case(cases[i], analyses[i], options, top.cases.empty() ? own : "");
   if (!top.cases.empty())
-    write_cases_summary(top, cases, reports, options.out_dir);
+    write_cases_summary(top, cases, analyses, options.out_dir, own);
   return 0;
 }
 

@@ -19,6 +19,7 @@
 
 #include "analysis/compare.hpp"
 #include "lib/config.hpp"
+#include "studies/diagnostics.hpp"
 #include "studies/study.hpp"
 
 namespace jamflow::studies {
@@ -94,11 +95,20 @@ ComparePlan load_compare(const std::string& path);
 ComparePlan parse_compare(const std::string& text, const std::string& source,
                           const std::string& base_dir);
 
+// One case of a comparison (the whole comparison without [[case]]) as a study's own report
+// section sees it: its plan, the analysis, and every run by setting and replica (the summaries,
+// verdicts, diagnostic windows and series).
+struct CompareCaseOutcome {
+  const ComparePlan* plan = nullptr;
+  const analysis::CompareResult* result = nullptr;
+  std::vector<std::vector<const DiagnosedRun*>> runs;  // [setting][replica]
+};
+
 // A study's own section of a comparison's report (the seed's numbers beside the comparison's,
-// say): markdown appended to report.md before the recommendation. Reads only the comparison's
-// result, so it is a pure function of what the report shows.
-using CompareReportSection =
-    std::function<std::string(const ComparePlan&, const analysis::CompareResult&)>;
+// the largest stable step per case, ...): markdown from every case's outcome, a pure function of
+// the runs and their analysis. Without [[case]] it goes into report.md before the
+// recommendation; with cases, at the end of OUT/report.md, after the table of cases.
+using CompareReportSection = std::function<std::string(const std::vector<CompareCaseOutcome>&)>;
 
 // Runs (or resumes, dry-runs, writes the Slurm array of) the comparison into options.out_dir
 // and writes the report; returns the exit status.

@@ -33,7 +33,9 @@ const analysis::ObservableResult* observable(const ComparePlan& plan,
 // The seed's Fig. 1 numbers beside this comparison's: the ratio NV/NP of the viscosity's block
 // standard deviation, and the spread of phi over the constant-pressure replicas. In sigma only
 // at the seed's state point (J = 3.98e-9 / 1e-5); elsewhere side by side.
-std::string seed_section(const ComparePlan& plan, const analysis::CompareResult& res) {
+std::string seed_section(const std::vector<CompareCaseOutcome>& cases) {
+  const ComparePlan& plan = *cases.front().plan;
+  const analysis::CompareResult& res = *cases.front().result;
   const Scene np = plan.setting_scene(plan.reference);
   const double gdot = np.section("shear").number("rate", 0.0, Range::non_negative());
   const double pressure = np.section("ensemble").number("pressure", 0.0, Range::non_negative());
