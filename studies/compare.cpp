@@ -511,6 +511,13 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
       auto cell = [](const analysis::Estimate& e, int d) {
         return std::isfinite(e.value) ? pm(e.value, e.error, d) : std::string("—");
       };
+      // An observable that does not fluctuate (phi at constant volume: its block means are all
+      // the same) has no spread to compare; its replica spread is rounding.
+      if (x.block_std.value == 0.0) {
+        rows.push_back({r.label, r.ensemble, plan.observables[o], "0 (constant)", "—", "—", "—",
+                        "—"});
+        continue;
+      }
       rows.push_back({r.label, r.ensemble, plan.observables[o], cell(x.block_std, 3),
                       cell(x.replica_std, 3), cell(x.block_std_ratio, 3),
                       cell(x.replica_std_ratio, 3), cell(x.tau, 3)});

@@ -122,6 +122,9 @@ TEST(EnsembleStudy, QuickPresetIsAComparisonAtOnePackingFraction) {
   EXPECT_NE(report.find(pm(ratio, ratio_err, 3), seed), std::string::npos);
   EXPECT_NE(report.find("not compared in sigma", seed), std::string::npos);
   EXPECT_EQ(report.find("sigma (disagrees)", seed), std::string::npos);
+  // phi does not fluctuate at constant volume: no spreads or ratios of rounding noise.
+  EXPECT_NE(report.find("| constant_volume | constant_volume | phi | 0 (constant) | — |"),
+            std::string::npos);
 
   // The piston holds <P_hat> at the imposed P. In the quick preset's short dilute runs phi still
   // wanders over strains of ~1, so the check is 5% of P rather than a few standard errors.
