@@ -748,13 +748,6 @@ std::string short_num(double v) {
   return buf;
 }
 
-std::string toml_num(double v) {
-  std::string s = fmt(v);  // shortest round-trip form
-  if (std::isfinite(v) && s.find_first_of(".eE") == std::string::npos)
-    s += ".0";
-  return s;
-}
-
 RunSpec StudyScene::spec(const std::vector<std::string>& overrides,
                          const std::string& source) const {
   Scene scene = Scene::parse(toml, source);

@@ -315,7 +315,5 @@ std::string cpu_cell(const DiagnosedRun& run);
 
 // Formats a number for labels ("0.05", "1e-05"; 6 significant digits).
 std::string short_num(double v);
-// Formats a double as a TOML float that parses back to the same double ("0.05", "2.0").
-std::string toml_num(double v);
 
 }  // namespace jamflow::studies
