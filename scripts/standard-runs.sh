@@ -47,6 +47,13 @@ case "$cmd" in
         continue
       fi
       if [ -d "$(kept "$s")" ]; then
+        # A run left in out/running (a sweep that went on after the last save, or finished) has
+        # progress the kept folder lacks: keep it, and say how to fold it in.
+        kj="$(kept "$s")/runs/journal.log" wj="$work/$s/runs/journal.log"
+        if [ -f "$wj" ] && [ "$(wc -l <"$wj")" -gt "$(wc -l <"$kj" 2>/dev/null || echo 0)" ]; then
+          echo "standard-runs: $work/$s has progress the kept folder lacks; run '$0 save $s' first" >&2
+          exit 1
+        fi
         rm -rf "${work:?}/$s"
         cp -r "$(kept "$s")" "$work/$s"
         rm -f "$work/$s/README.md"
