@@ -514,8 +514,8 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
       // An observable that does not fluctuate (phi at constant volume: its block means are all
       // the same) has no spread to compare; its replica spread is rounding.
       if (x.block_std.value == 0.0) {
-        rows.push_back({r.label, r.ensemble, plan.observables[o], "0 (constant)", "—", "—", "—",
-                        "—"});
+        rows.push_back(
+            {r.label, r.ensemble, plan.observables[o], "0 (constant)", "—", "—", "—", "—"});
         continue;
       }
       rows.push_back({r.label, r.ensemble, plan.observables[o], cell(x.block_std, 3),
