@@ -8,6 +8,8 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "analysis/error_model.hpp"
+
 namespace jamflow::analysis {
 namespace {
 
@@ -139,12 +141,15 @@ CompareResult compare(const CompareInput& in) {
     SettingResult r;
     r.label = s.label;
     r.ensemble = s.ensemble;
-    r.ran = !s.cpu_per_tau.empty();
+    r.ran = !s.cpu_per_tau.empty() && !s.over_budget;
+    r.over_budget = s.over_budget;
     r.stable = s.stable && r.ran;
     r.why_unstable = s.why_unstable;
     if (!r.ran && r.why_unstable.empty())
       r.why_unstable = "no finished run";
-    if (!r.stable)
+    if (s.over_budget)
+      out.over_budget.push_back(si);
+    else if (!r.stable)
       out.unstable.push_back(si);
     if (!r.ran || !ref_ran) {
       r.cpu_per_tau = r.cpu_per_particle_tau = {kNaN, kNaN};
@@ -158,7 +163,6 @@ CompareResult compare(const CompareInput& in) {
     const double n = s.particles > 0.0 ? s.particles : kNaN;
     r.cpu_per_particle_tau = {r.cpu_per_tau.value / n, r.cpu_per_tau.error / n};
     r.steady = s.steady;
-    r.within = r.stable && r.steady;
     for (std::size_t o = 0; o < n_obs; ++o) {
       const auto& reps = s.observables[o];
       ObservableResult res;
@@ -184,6 +188,55 @@ CompareResult compare(const CompareInput& in) {
         }
         res.difference = replica_mean(d, e, &res.source);
       }
+      spreads(reps, res.block_std, res.replica_std);
+      res.block_std_ratio = ratio(res.block_std, refs[o].block_std);
+      res.replica_std_ratio = ratio(res.replica_std, refs[o].replica_std);
+      const MeanStd t = mean_std(taus);
+      res.tau = {t.mean, t.std / std::sqrt(double(taus.size()))};
+      r.observables.push_back(res);
+    }
+    out.settings.push_back(std::move(r));
+  }
+
+  // The converged settings' scatter, per observable: where their means scatter more than their
+  // errors allow, every error of the observable grows by sqrt(chi2/dof).
+  out.converged_scatter.assign(n_obs, {});
+  for (std::size_t o = 0; o < n_obs; ++o) {
+    std::vector<double> x, e;
+    for (std::size_t si = 0; si < out.settings.size(); ++si) {
+      const SettingResult& r = out.settings[si];
+      if ((in.settings[si].converged || si == in.reference) && r.stable &&
+          o < r.observables.size() && std::isfinite(r.observables[o].mean.value) &&
+          r.observables[o].mean.error > 0.0) {
+        x.push_back(r.observables[o].mean.value);
+        e.push_back(r.observables[o].mean.error);
+      }
+    }
+    auto& cs = out.converged_scatter[o];
+    cs.settings = static_cast<int>(x.size());
+    if (x.size() < 2)
+      continue;
+    const Scatter sc = scatter_of(x, e);
+    cs.reduced_chi2 = sc.reduced_chi2;
+    cs.error_scale = std::max(1.0, sc.error_scale);
+    for (auto& r : out.settings) {
+      if (o >= r.observables.size())
+        continue;
+      ObservableResult& res = r.observables[o];
+      res.mean.error *= cs.error_scale;
+      res.difference.error *= cs.error_scale;
+      res.floor *= cs.error_scale;
+    }
+  }
+
+  // Significance, tolerance and the worst error in floors, from the (scaled) errors.
+  for (std::size_t si = 0; si < out.settings.size(); ++si) {
+    SettingResult& r = out.settings[si];
+    if (!r.ran || !ref_ran)
+      continue;
+    r.within = r.stable && r.steady;
+    for (std::size_t o = 0; o < r.observables.size(); ++o) {
+      ObservableResult& res = r.observables[o];
       res.z = in_units(res.difference.value, res.difference.error);
       res.error_in_floors = in_units(res.difference.value, res.floor);
       const double rel = o < in.relative_tolerance.size() ? in.relative_tolerance[o] : 0.0;
@@ -192,15 +245,8 @@ CompareResult compare(const CompareInput& in) {
           (res.z <= in.tolerance_sigma ||
            (rel > 0.0 && std::abs(res.difference.value) <= rel * std::abs(refs[o].mean.value)));
       r.within = r.within && res.within;
-      spreads(reps, res.block_std, res.replica_std);
-      res.block_std_ratio = ratio(res.block_std, refs[o].block_std);
-      res.replica_std_ratio = ratio(res.replica_std, refs[o].replica_std);
-      const MeanStd t = mean_std(taus);
-      res.tau = {t.mean, t.std / std::sqrt(double(taus.size()))};
       r.worst_error_in_floors = std::max(r.worst_error_in_floors, res.error_in_floors);
-      r.observables.push_back(res);
     }
-    out.settings.push_back(std::move(r));
   }
 
   // Ranking by the paired errors: the worst observable in units of the floor; settings without

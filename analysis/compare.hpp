@@ -36,6 +36,14 @@ struct SettingInput {
   // is not the steady state's, so such a setting is not recommended either.
   bool steady = true;
   double particles = 0.0;  // N
+  // Stopped by its per-run budget ([run] max_force_evaluations): too slow to finish, which is
+  // not a failure of stability. Such a setting is not analysed and not listed as unstable.
+  bool over_budget = false;
+  // Known to be converged (a step or tolerance far finer than the others): its differences from
+  // the reference are statistical only. The scatter of the converged settings' means (the
+  // reference among them) about their weighted mean measures how far the errors understate the
+  // run-to-run scatter; see CompareResult::converged_scatter.
+  bool converged = false;
   // Per replica: CPU seconds per tau_0 of simulated time. Empty for a setting that did not run.
   std::vector<double> cpu_per_tau;
   // [observable][replica]; every observable has as many replicas as cpu_per_tau.
@@ -82,6 +90,7 @@ struct SettingResult {
   std::string label, ensemble;
   bool ran = false;  // has replicas to analyse
   bool stable = false;
+  bool over_budget = false;  // SettingInput::over_budget (then not stable, not in `unstable`)
   std::string why_unstable;
   Estimate cpu_per_tau;           // CPU seconds per tau_0 (mean over replicas)
   Estimate cpu_per_particle_tau;  // the same per particle
@@ -96,7 +105,18 @@ struct CompareResult {
   std::vector<SettingResult> settings;
   // The cheapest setting (CPU per particle and tau_0) that is within tolerance; -1: none.
   int recommended = -1;
-  std::vector<std::size_t> unstable;  // settings that failed (not stable), in input order
+  std::vector<std::size_t> unstable;     // settings that failed (not stable), in input order
+  std::vector<std::size_t> over_budget;  // settings stopped by their budget, in input order
+  // Per observable: the converged settings' (SettingInput::converged, stable, and the reference)
+  // means about their weighted mean. With 2 or more of them and chi2/dof > 1, every error of
+  // that observable (means, differences, floors) is multiplied by sqrt(chi2/dof), the rule of
+  // the fits (analysis/error_model.hpp), before z, the tolerance and the ranking.
+  struct ConvergedScatter {
+    int settings = 0;  // how many entered (0 or 1: no scaling)
+    double reduced_chi2 = 0.0;
+    double error_scale = 1.0;
+  };
+  std::vector<ConvergedScatter> converged_scatter;
 };
 
 // Requires every setting to have the input's observables; throws std::invalid_argument

@@ -109,8 +109,10 @@ analysis::CompareInput analysis_input(const ComparePlan& plan,
     si.label = plan.settings[s].label;
     si.ensemble = runs[s].ensemble;
     si.particles = double(plan.settings[s].n);
+    si.converged = plan.settings[s].converged;
     bool all_complete = true;
     for (const auto& r : runs[s].replicas) {
+      si.over_budget = si.over_budget || r.result.status.is_budget();
       const std::string why = unstable_reason(r, plan.diagnose);
       if (!why.empty() && si.why_unstable.empty())
         si.why_unstable = r.label + ": " + why;
@@ -259,6 +261,14 @@ void write_h5(const std::string& path, const ComparePlan& plan,
   w.attr("/", "recommended",
          res.recommended >= 0 ? plan.settings[std::size_t(res.recommended)].label : "");
   w.attr("/", "base_scene", plan.base.text());
+  for (std::size_t o = 0; o < plan.observables.size() && o < res.converged_scatter.size(); ++o) {
+    const auto& c = res.converged_scatter[o];
+    const std::string g = "/observables/" + plan.observables[o];
+    w.group(g);
+    w.attr(g, "converged_settings", static_cast<std::int64_t>(c.settings));
+    w.attr(g, "converged_reduced_chi2", c.reduced_chi2);
+    w.attr(g, "error_scale", c.error_scale);
+  }
   for (std::size_t s = 0; s < res.settings.size(); ++s) {
     const auto& r = res.settings[s];
     const auto& sr = runs[s];
@@ -270,6 +280,8 @@ void write_h5(const std::string& path, const ComparePlan& plan,
     w.attr(g, "N", plan.settings[s].n);
     w.attr(g, "stable", static_cast<std::int64_t>(r.stable));
     w.attr(g, "why_unstable", r.why_unstable);
+    w.attr(g, "over_budget", static_cast<std::int64_t>(r.over_budget));
+    w.attr(g, "converged", static_cast<std::int64_t>(plan.settings[s].converged));
     w.attr(g, "within", static_cast<std::int64_t>(r.within));
     w.attr(g, "rank", static_cast<std::int64_t>(r.rank));
     w.attr(g, "cpu_per_tau", r.cpu_per_tau.value);
@@ -322,6 +334,35 @@ void write_h5(const std::string& path, const ComparePlan& plan,
     }
   }
   w.commit();
+}
+
+// What the converged settings' scatter did to the errors (analysis::CompareResult).
+std::string converged_text(const ComparePlan& plan, const analysis::CompareResult& res) {
+  std::vector<std::string> marked;
+  for (const auto& s : plan.settings)
+    if (s.converged)
+      marked.push_back("`" + s.label + "`");
+  if (marked.empty())
+    return {};
+  std::string md =
+      "Converged settings (converged = true: their differences from the reference "
+      "are statistical only): " +
+      join(marked) +
+      ". Their stable runs and the reference's means scatter about their weighted "
+      "mean with, per observable: ";
+  for (std::size_t o = 0; o < plan.observables.size() && o < res.converged_scatter.size(); ++o) {
+    const auto& c = res.converged_scatter[o];
+    md += std::string(o ? "; " : "") + plan.observables[o] + " ";
+    md += c.settings < 2 ? "fewer than 2 settings, errors kept"
+          : c.error_scale > 1.0
+              ? "chi2/dof = " + num(c.reduced_chi2, 3) + " over " + std::to_string(c.settings) +
+                    ", every error multiplied by " + num(c.error_scale, 3)
+              : "chi2/dof = " + num(c.reduced_chi2, 3) + " over " + std::to_string(c.settings) +
+                    ", errors kept";
+  }
+  return md +
+         " (the errors of single runs understate the run-to-run scatter where chi2/dof > 1; "
+         "the errors, floors, σ and the tolerance below include the factor).\n\n";
 }
 
 std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& runs,
@@ -392,6 +433,7 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
       "series (the table says which). The floor is the reference's own error. CPU cost is "
       "each run's CPU seconds (its `jamflow run` process, one thread) over its simulated time "
       "(t_eq + t_av), per tau_0 and per particle and tau_0.\n\n";
+  md += converged_text(plan, res);
 
   // Work-precision.
   md += "## Work and precision\n\n";
@@ -546,6 +588,14 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
     md +=
         "No setting is within tolerance (the reference itself did not finish stable and "
         "steady).\n\n";
+  }
+  if (!res.over_budget.empty()) {
+    md +=
+        "Over their per-run budget (run.max_force_evaluations; too slow to finish, not "
+        "analysed):\n\n";
+    for (std::size_t s : res.over_budget)
+      md += "- " + res.settings[s].label + ": " + res.settings[s].why_unstable + "\n";
+    md += "\n";
   }
   if (res.unstable.empty()) {
     md += "Unstable settings: none.\n";

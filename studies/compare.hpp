@@ -42,6 +42,10 @@ struct CompareSetting {
   // runs at the same packing fraction, not at the last frame's phi (a fluctuation away from the
   // mean) nor at one replica's window mean: one state point, as an ensemble comparison needs.
   bool start_mean_phi = false;
+  // converged = true: a setting fine enough that its differences from the reference are
+  // statistical only; the converged settings' scatter scales the errors where it exceeds them
+  // (analysis::CompareResult::converged_scatter).
+  bool converged = false;
 };
 
 struct ComparePlan {

@@ -370,7 +370,13 @@ ComparePlan parse_compare(const std::string& text, const std::string& source,
       if (other.label == s.label)
         throw ConfigError(at + ": label \"" + s.label + "\" given twice; allowed unique labels");
     s.overrides = read_overrides(t, where + "[[setting]] '" + s.label + "'",
-                                 {"label", "start", "from"}, true);
+                                 {"label", "start", "from", "converged"}, true);
+    if (const toml::node* c = t.get("converged")) {
+      if (!c->is_boolean())
+        throw ConfigError(where + "[[setting]] '" + s.label + "': converged = " + show(*c) +
+                          "; allowed true or false");
+      s.converged = c->as_boolean()->get();
+    }
     if (const toml::node* st = t.get("start")) {
       const auto v = st->value<std::string>();
       if (!v || (*v != "final" && *v != "mean_phi"))

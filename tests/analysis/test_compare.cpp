@@ -137,6 +137,55 @@ TEST(Compare, SpreadRatiosAgainstTheReferenceWithErrors) {
   EXPECT_TRUE(std::isnan(one.settings[0].observables[0].replica_std.value));
 }
 
+TEST(Compare, ConvergedSettingsThatScatterMoreThanTheirErrorsScaleEveryError) {
+  // The reference (1.0) and two converged settings (1.4, 0.6), each with error 0.2: about their
+  // weighted mean 1.0, chi2 = 0 + 4 + 4 over 2 degrees of freedom = 4, so every error doubles.
+  SettingInput c1 = setting("c1", {1.4}, 0.2, 1.0), c2 = setting("c2", {0.6}, 0.2, 1.0);
+  c1.converged = c2.converged = true;
+  // An unstable converged setting does not enter the scatter (its mean would double it again).
+  SettingInput bad = setting("bad", {9.0}, 0.2, 1.0);
+  bad.converged = true;
+  bad.stable = false;
+  // x differs by 0.7 with error hypot(0.2, 0.2) = 0.283: 2.47 sigma before the scaling (outside
+  // 2 sigma), 1.24 after it (inside).
+  const SettingInput x = setting("x", {1.7}, 0.2, 0.5);
+  SettingInput slow = setting("slow", {}, 0.2, 1.0);
+  slow.over_budget = true;
+  CompareInput in = input({setting("ref", {1.0}, 0.2, 2.0), c1, c2, bad, x, slow});
+  const CompareResult r = compare(in);
+  ASSERT_EQ(r.converged_scatter.size(), 1u);
+  EXPECT_EQ(r.converged_scatter[0].settings, 3);
+  EXPECT_NEAR(r.converged_scatter[0].reduced_chi2, 4.0, 1e-12);
+  EXPECT_NEAR(r.converged_scatter[0].error_scale, 2.0, 1e-12);
+  const ObservableResult& ox = r.settings[4].observables[0];
+  EXPECT_NEAR(ox.difference.error, 2.0 * std::hypot(0.2, 0.2), 1e-12);
+  EXPECT_NEAR(ox.floor, 0.4, 1e-12);
+  EXPECT_NEAR(ox.mean.error, 0.4, 1e-12);
+  EXPECT_NEAR(ox.z, 0.7 / (2.0 * std::hypot(0.2, 0.2)), 1e-12);
+  EXPECT_TRUE(ox.within);
+  EXPECT_EQ(r.recommended, 4);  // the cheapest within tolerance
+  // Over budget is not unstable: listed apart, and not analysed.
+  EXPECT_EQ(r.unstable, std::vector<std::size_t>({3}));
+  EXPECT_EQ(r.over_budget, std::vector<std::size_t>({5}));
+  EXPECT_FALSE(r.settings[5].ran);
+
+  // Unmarked, the same numbers keep their errors, and x is outside 2 sigma.
+  in.settings[1].converged = in.settings[2].converged = in.settings[3].converged = false;
+  const CompareResult u = compare(in);
+  EXPECT_EQ(u.converged_scatter[0].settings, 1);
+  EXPECT_EQ(u.converged_scatter[0].error_scale, 1.0);
+  EXPECT_NEAR(u.settings[4].observables[0].z, 0.7 / std::hypot(0.2, 0.2), 1e-12);
+  EXPECT_FALSE(u.settings[4].observables[0].within);
+  // Converged settings that agree within their errors (chi2/dof < 1) keep them: never shrunk.
+  in.settings[1].observables[0][0].mean = 1.1;
+  in.settings[2].observables[0][0].mean = 0.9;
+  in.settings[1].converged = in.settings[2].converged = true;
+  const CompareResult k = compare(in);
+  EXPECT_NEAR(k.converged_scatter[0].reduced_chi2, 0.25, 1e-12);
+  EXPECT_EQ(k.converged_scatter[0].error_scale, 1.0);
+  EXPECT_NEAR(k.settings[4].observables[0].floor, 0.2, 1e-12);
+}
+
 TEST(Compare, RejectsAReferenceOutOfRangeAndMissingObservables) {
   CompareInput in = input({setting("ref", {1.0}, 0.1, 1.0), setting("a", {1.0}, 0.1, 1.0)});
   in.reference = 2;
