@@ -4,6 +4,7 @@
 # Run it only for a change meant to move the numbers, and say in the commit which change and why.
 # The runs use the portable force kernel, as the test does: the same bits on every x86-64 machine.
 #   bash scripts/quick-reference.sh [BUILD_DIR]      (default: build)
+#   STUDIES="timestep ensemble" bash scripts/quick-reference.sh   only these studies
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 jamflow="$(realpath "${1:-$root/build}")/jamflow"
@@ -17,7 +18,9 @@ declare -A files=(
   [soft-rheology]="constant-pressure/table.csv constant-volume/table.csv analysis.json"
   [olsson-teitel]="table.csv analysis.json"
 )
+want() { [ -z "${STUDIES:-}" ] || [[ " $STUDIES " == *" $1 "* ]]; }
 for study in hard-sphere finite-size soft-rheology olsson-teitel; do
+  want "$study" || continue
   echo "quick-reference: $study"
   "$jamflow" study "$study" --preset quick --out "$work/$study" -j 2 --no-plots \
     > "$work/$study.log" 2>&1 || true  # exit 1: a part could not be fitted (tiny systems)
@@ -30,17 +33,25 @@ for study in hard-sphere finite-size soft-rheology olsson-teitel; do
   done
 done
 # The studies in stages: their HDF5 file, as a digest of its numbers (quick_numbers.py); a study
-# that is a comparison plan writes compare.h5.
-declare -A h5=([timestep]=timestep.h5 [stability]=stability.h5 [softness]=softness.h5
-  [ensemble]=compare.h5)
+# that is a comparison plan writes compare.h5, one per case (CASE/compare.h5) for a plan with
+# cases.
+declare -A h5=([stability]=stability.h5 [softness]=softness.h5)
 for study in timestep stability softness ensemble; do
+  want "$study" || continue
   echo "quick-reference: $study"
   "$jamflow" study "$study" --preset quick --out "$work/$study" -j 2 --no-plots \
     > "$work/$study.log" 2>&1 || { echo "quick-reference: $study failed" >&2; exit 1; }
   ref="$root/tests/studies/data/quick/$study"
   rm -rf "$ref"
-  mkdir -p "$ref"
-  /usr/bin/python3 "$root/tests/studies/quick_numbers.py" --digest "$work/$study/${h5[$study]}" \
-    "$ref/${h5[$study]}.digest.json"
+  if [ -n "${h5[$study]:-}" ]; then
+    outs="${h5[$study]}"
+  else
+    outs=$(cd "$work/$study" && find . -name compare.h5 -not -path "*/runs/*" | sed 's|^\./||' | sort)
+  fi
+  for f in $outs; do
+    mkdir -p "$(dirname "$ref/$f")"
+    /usr/bin/python3 "$root/tests/studies/quick_numbers.py" --digest "$work/$study/$f" \
+      "$ref/$f.digest.json"
+  done
 done
 echo "quick-reference: written under tests/studies/data/quick/"

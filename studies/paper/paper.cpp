@@ -65,13 +65,19 @@ std::string headline(const fs::path& report) {
   return first == std::string::npos ? std::string() : out.substr(first);
 }
 
-// A study's figures (its folder's PNG files), as images linked relative to the paper report.
+// A study's figures (its folder's PNG files, and those of each case of a comparison plan with
+// cases: CASE/compare.h5 beside them), as images linked relative to the paper report.
 std::string figures(const fs::path& dir) {
   std::vector<std::string> names;
   std::error_code ec;
-  for (const auto& e : fs::directory_iterator(dir, ec))
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
     if (e.is_regular_file() && e.path().extension() == ".png")
       names.push_back(e.path().filename().string());
+    if (e.is_directory() && fs::exists(e.path() / "compare.h5"))
+      for (const auto& f : fs::directory_iterator(e.path(), ec))
+        if (f.is_regular_file() && f.path().extension() == ".png")
+          names.push_back((e.path().filename() / f.path().filename()).string());
+  }
   std::sort(names.begin(), names.end());
   std::string md;
   for (const auto& n : names)

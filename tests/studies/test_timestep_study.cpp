@@ -1,9 +1,9 @@
-// Timestep study end to end on a tiny version of the quick preset: outputs exist, the
-// reference is Euler at the smallest dt, dt = 0.05 and RKC are stable and their errors are their
-// shifts from the reference within a stated bound, no run is left out, and dt = 1.5 is not
-// stable and never counted as meeting a target.
+// Timestep study: its presets are compare plans that load and check, its section (the cheapest
+// usable setting per target, the seed's claim, the first unstable Euler step) is a pure
+// function checked on a synthetic outcome, and a tiny plan runs end to end: the reference is
+// Euler at the smallest step, dt = 0.05 and RKC are stable with small shifts, dt = 1.5 is
+// unstable, the first unstable step and never meets a target.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <filesystem>
@@ -18,121 +18,220 @@
 using namespace jamflow;
 using namespace jamflow::studies;
 
-// The point is P = 0.1, gdot = 0.01 (harmonic, J = 0.1), where verdicts are firm (the stability
-// test's case): the piston relaxes phi within 5 / P = 50 (the preparation runs 200), and tau of
-// sigma_xy, phi and P is at most about 13, so blocks of 75 (t_av = 1500, 20 blocks) are about
-// 3x the decorrelated verdict's 2 tau. Euler's limit there lies between dt = 0.2 and 0.3
-// (standard stability preset): 0.02 and 0.05 are far below it, 1.5 far above.
-TEST(TimestepStudy, TinyQuickPreset) {
-  TimestepPreset p = timestep_preset("quick");
-  p.points.resize(1);
-  StatePoint& pt = p.points[0];
-  ASSERT_TRUE(pt.constant_pressure);
-  pt.n = 150;
-  pt.pressure = 0.1;
-  pt.gdot = 0.01;
-  pt.phi = 0.75;  // initial packing, as the stability study's P = 0.1 case
-  pt.name = "P=0.1 gdot=0.01";
-  p.euler_dts = {0.02, 0.05, 1.5};
-  p.respa.clear();
-  p.cvode_tols.clear();
-  p.rkc_overlaps = {0.1};         // one RKC setting, run r003
-  p.budget_particle_steps = 0.0;  // no budget: the runs are short
-  p.t_prep_min = 200.0;
-  p.strain_prep = 0.0;
-  p.t_eq_min = 50.0;
-  p.strain_eq = 0.0;
-  p.t_av_min = 1500.0;
-  p.strain_av = 0.0;
-  const testing_support::TempDir scratch(
-      "jamflow_timestep_study.");  // removed however the test ends
-  const std::string dir = scratch.path();
-  std::filesystem::remove_all(dir);
-  use_test_jamflow();
-  StudyOptions o;
-  o.preset = "quick";
-  o.out_dir = dir;
-  o.quiet = true;
-  o.jobs = 1;
-  ASSERT_EQ(run_timestep_preset(p, o), 0);
-  // Every run is a point file of the sweep engine; a rerun reads them back, computing nothing.
-  const auto files = point_files(dir);
-  EXPECT_EQ(files.size(), 5u);  // the preparation and four settings
-  o.no_plots = true;            // the plots of the first run stay
-  ASSERT_EQ(run_timestep_preset(p, o), 0);
-  EXPECT_EQ(point_files(dir), files);
-  ASSERT_TRUE(std::filesystem::exists(dir + "/report.md"));
-  ASSERT_TRUE(std::filesystem::exists(dir + "/timestep.h5"));
-  if (std::filesystem::exists("/usr/bin/python3")) {
-    EXPECT_TRUE(std::filesystem::exists(dir + "/timestep_wp_sigma_xy.png"));
-  }
+namespace {
 
-  H5Reader r(dir + "/timestep.h5");
-  EXPECT_EQ(r.attr_int("/points/p00", "reference"), 0);
-  const std::string g_ref = "/points/p00/runs/r000", g005 = "/points/p00/runs/r001",
-                    g15 = "/points/p00/runs/r002", grkc = "/points/p00/runs/r003";
-  EXPECT_DOUBLE_EQ(r.attr_double(g_ref, "step"), 0.02);
-  EXPECT_DOUBLE_EQ(r.attr_double(g005, "step"), 0.05);
-  // The cost columns: each run's CPU seconds (its file recorded them) and particle-steps, and
-  // the coarser step costs fewer particle-steps for the same duration (2.5x fewer steps).
-  for (const std::string& g : {g_ref, g005}) {
-    const double cpu = r.attr_double(g, "cpu_seconds");
-    EXPECT_TRUE(std::isfinite(cpu) && cpu > 0.0) << g << ": " << cpu;
-    EXPECT_EQ(r.attr_int(g, "cpu_from_wall"), 0) << g;
-    EXPECT_GT(r.attr_double(g, "particle_steps"), 0.0) << g;
+std::string read_text(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// The settings of both tests: Euler at 0.02 (the reference), 0.05, 0.4 and 1.5, RESPA
+// (particles x 4) at dt = 1 and RKC at 0.1 overlaps, at constant pressure P = 0.1, gdot = 0.01
+// (harmonic, J = 0.1), where verdicts are firm (the stability test's case): the piston relaxes
+// phi within 5 / P = 50 (the preparation runs 200), and tau of sigma_xy, phi and P is at most
+// about 13, so blocks of 75 (t_av = 1500, 20 blocks) are about 3x the decorrelated verdict's
+// 2 tau. Euler's limit there lies between dt = 0.2 and 0.3: 0.02 and 0.05 are far below it,
+// 1.5 far above.
+std::string plan_text(const std::string& settings) {
+  return R"(reference = "euler-0.02"
+observables = ["sigma_xy", "phi", "pressure"]
+diagnose = true
+relative_tolerance = { sigma_xy = 0.01, phi = 0.0016, pressure = 0.01 }
+[base.system]
+N = 150
+phi = 0.75
+seed = 1
+[base.ensemble]
+kind = "constant_pressure"
+pressure = 0.1
+xi_V = 1e-4
+[base.shear]
+rate = 0.01
+[base.integrator]
+kind = "euler"
+dt = 0.02
+[base.run]
+t_eq = 0.0
+t_av = 1.0
+[prepare]
+t = 200.0
+integrator = { kind = "euler", dt = 0.05 }
+[run]
+t_eq = 48.0
+t_av = 1500.0
+sample_every = 12.0
+[[setting]]
+label = "euler-0.02"
+converged = true
+[[setting]]
+label = "euler-0.05"
+integrator.dt = 0.05
+converged = true
+)" + settings;
+}
+
+}  // namespace
+
+TEST(TimestepStudy, PresetsAreComparePlansWithEveryIntegratorFamily) {
+  for (const char* preset : {"quick", "standard", "paper"}) {
+    const ComparePlan plan = study_compare_plan("timestep", preset);
+    EXPECT_EQ(plan.settings[plan.reference].label, "euler-0.02") << preset;
+    EXPECT_GE(plan.cases.size(), 4u) << preset;
+    EXPECT_TRUE(plan.diagnose) << preset;
+    int euler = 0, respa = 0, cvode = 0, rkc = 0, converged = 0;
+    for (std::size_t s = 0; s < plan.settings.size(); ++s) {
+      const std::string kind =
+          (*plan.setting_scene(s).table("integrator"))["kind"].value_or(std::string());
+      euler += kind == "euler";
+      respa += kind == "respa";
+      cvode += kind == "cvode";
+      rkc += kind == "rkc";
+      converged += plan.settings[s].converged;
+    }
+    EXPECT_GE(euler, 6) << preset;
+    EXPECT_GE(respa, 2) << preset;
+    EXPECT_GE(cvode, 2) << preset;
+    EXPECT_GE(rkc, 3) << preset;
+    EXPECT_GE(converged, 4) << preset;
   }
-  EXPECT_NEAR(r.attr_double(g_ref, "particle_steps") / r.attr_double(g005, "particle_steps"), 2.5,
-              0.01);
-  // The fine steps and RKC are stable and pass their own verdicts, so every one enters the
-  // errors and none is left out.
-  for (const std::string& g : {g_ref, g005, grkc})
-    EXPECT_EQ(r.attr_string(g, "verdict"), "stable") << g << ": " << r.attr_string(g, "reason");
-  // Each error is the shift of the run's mean from the reference's, relative for sigma_xy and
-  // absolute for phi, with a positive floor; the reference's own shift is zero.
-  const double s_ref = r.attr_double(g_ref, "summary_sigma_xy");
-  const double phi_ref = r.attr_double(g_ref, "summary_phi");
-  EXPECT_EQ(r.attr_int(g_ref, "is_reference"), 1);
-  EXPECT_EQ(r.attr_double(g_ref, "err_sigma_xy"), 0.0);
-  for (const std::string& g : {g005, grkc}) {
-    EXPECT_EQ(r.attr_int(g, "is_reference"), 0) << g;
-    const double err = r.attr_double(g, "err_sigma_xy");
-    const double floor = r.attr_double(g, "floor_sigma_xy");
-    EXPECT_NEAR(err, std::abs(r.attr_double(g, "summary_sigma_xy") - s_ref) / std::abs(s_ref),
-                1e-12)
-        << g;
-    EXPECT_NEAR(r.attr_double(g, "err_phi"), std::abs(r.attr_double(g, "summary_phi") - phi_ref),
-                1e-12)
-        << g;
-    EXPECT_GT(floor, 0.0) << g;
-    EXPECT_GT(r.attr_double(g, "floor_phi"), 0.0) << g;
-    // The shift is Euler's first-order bias at dt = 0.05 (or RKC's at 0.1 delta) plus noise:
-    // both well below 5 % of sigma_xy here, so the shift is below 5 % + 4 floors (4 sigma: the
-    // noise part exceeds it with probability below 1e-4).
-    EXPECT_LT(err, 0.05 + 4.0 * floor) << g;
-    RecordProperty(g + " err_sigma_xy", std::to_string(err));
-    RecordProperty(g + " floor_sigma_xy", std::to_string(floor));
+}
+
+// The section on a synthetic outcome whose answers are known by construction.
+TEST(TimestepStudy, SectionPicksTheCheapestUsableSettingPerTargetAndNamesTheFirstUnstableStep) {
+  const ComparePlan plan = parse_compare(plan_text(R"([[setting]]
+label = "euler-0.4"
+integrator.dt = 0.4
+[[setting]]
+label = "euler-1.5"
+integrator.dt = 1.5
+[[setting]]
+label = "respa-1"
+integrator = { kind = "respa", dt = 1.0, n_inner = 4, inner = "particles" }
+[[setting]]
+label = "rkc-0.1"
+integrator = { kind = "rkc", atol_overlaps = 0.1 }
+)"),
+                                         "synthetic.toml", ".");
+  ASSERT_EQ(plan.settings.size(), 6u);
+  // sigma_xy 1e-2 at the reference. Differences (error): euler-0.05 1e-4 (1e-4), cost 4;
+  // euler-0.4 2.5e-4 (1e-4), cost 1; euler-1.5 unstable (oscillating), cost 0.5; respa-1 stable
+  // but correlated, cost 0.8, difference 0; rkc-0.1 2e-4 (1e-4), cost 2.
+  analysis::CompareResult res;
+  const double diff[] = {0.0, 1e-4, 2.5e-4, 0.0, 0.0, 2e-4};
+  const double cpu[] = {10.0, 4.0, 1.0, 0.5, 0.8, 2.0};
+  std::vector<DiagnosedRun> runs(6);
+  for (std::size_t s = 0; s < 6; ++s) {
+    analysis::SettingResult r;
+    r.label = plan.settings[s].label;
+    r.ensemble = "constant_pressure";
+    r.ran = true;
+    r.stable = s != 3;
+    r.steady = true;
+    r.cpu_per_particle_tau = {cpu[s], 0.0};
+    r.observables.resize(3);
+    for (auto& o : r.observables) {
+      o.mean = {1e-2, 1e-4};
+      o.difference = {diff[s], 1e-4};
+      o.z = diff[s] / 1e-4;
+      o.within = o.z <= 2.0;
+    }
+    res.settings.push_back(r);
+    runs[s].cls.verdict = s == 3   ? studies::Verdict::kOscillating
+                          : s == 4 ? studies::Verdict::kCorrelated
+                                   : studies::Verdict::kStable;
+    runs[s].balance.valid = true;
+    runs[s].balance.ratio = s == 3 ? 0.01 : 1.0 - 0.001 * double(s);
+    runs[s].balance.error = 1e-3;
   }
-  {
-    std::ifstream in(dir + "/report.md");
-    const std::string report((std::istreambuf_iterator<char>(in)), {});
-    const auto at = report.find("## Runs left out by their verdicts");
-    ASSERT_NE(at, std::string::npos);
-    EXPECT_NE(report.find("None: every run that finished stable passed its verdicts.", at),
-              std::string::npos)
-        << report.substr(at);
+  CompareCaseOutcome c;
+  c.plan = &plan;
+  c.result = &res;
+  for (auto& r : runs)
+    c.runs.push_back({&r});
+  const std::string md = timestep_section({c});
+  auto row = [&](const std::string& start) {
+    const auto at = md.find("| " + start);
+    return at == std::string::npos ? std::string() : md.substr(at, md.find('\n', at) - at);
+  };
+  // sigma_xy within 5 %: error + 2 x 1 % (relative) for all three usable ones; euler-0.4 is the
+  // cheapest (respa-1 is cheaper but correlated, euler-1.5 cheaper but unstable).
+  EXPECT_NE(row("σ_xy ≤ 5 %").find("euler-0.4 (1)"), std::string::npos) << md;
+  // Within 1 %: 2 x 1 % exceeds it for every usable setting.
+  EXPECT_NE(row("σ_xy ≤ 1 %").find("unresolved (2σ 2 %)"), std::string::npos) << md;
+  // phi absolute within 1e-3: euler-0.05 (1e-4 + 2e-4), euler-0.4 (2.5e-4 + 2e-4) and rkc-0.1
+  // (2e-4 + 2e-4) meet it; euler-0.4 is the cheapest. Within 1e-4 none can (2 x 1e-4).
+  EXPECT_NE(row("\\|Δφ\\| ≤ 0.001").find("euler-0.4 (1)"), std::string::npos) << md;
+  EXPECT_NE(row("\\|Δφ\\| ≤ 0.0001").find("unresolved"), std::string::npos) << md;
+  // P_hat is imposed at constant pressure: no target.
+  EXPECT_NE(row("P̂ ≤ 5 %").find("n/a"), std::string::npos) << md;
+  // Energy balance within 1 %: |EB - 1| + 2 x 0.1 % is 0.3 % (euler-0.05), 0.4 % (euler-0.4),
+  // 0.7 % (rkc-0.1); euler-0.4 is again the cheapest.
+  EXPECT_NE(row("\\|EB − 1\\| ≤ 1 %").find("euler-0.4 (1)"), std::string::npos) << md;
+  EXPECT_EQ(md.find("euler-1.5 ("), std::string::npos) << md;
+  EXPECT_EQ(md.find("respa-1 ("), std::string::npos) << md;
+  // The claim table: Euler at 0.4 differs (2.5e-4 / 1e-4 = 2.5 sigma, outside the synthetic
+  // `within`, z <= 2), 1.5 oscillates; RESPA at dt = 1 is correlated.
+  const std::string euler_row = row("synthetic | euler |");
+  EXPECT_NE(euler_row.find("stable, **differs**: σ 2.5 % (2.5σ)"), std::string::npos) << md;
+  EXPECT_NE(euler_row.find("oscillating (EB 0.01)"), std::string::npos) << md;
+  EXPECT_NE(row("synthetic | respa particlesx4 |").find("correlated"), std::string::npos) << md;
+  EXPECT_NE(md.find("First unstable Euler dt per state point: synthetic: 1.5."), std::string::npos)
+      << md;
+  // No usable reference, no pick.
+  runs[0].cls.verdict = studies::Verdict::kNotSteady;
+  const std::string none = timestep_section({c});
+  EXPECT_NE(none.find("no usable reference (not steady)"), std::string::npos) << none;
+}
+
+TEST(TimestepStudy, TinyPlanEndToEnd) {
+  use_test_jamflow();
+  const testing_support::TempDir scratch("jamflow_timestep_study.");
+  const ComparePlan plan = parse_compare(plan_text(R"([[setting]]
+label = "euler-1.5"
+integrator.dt = 1.5
+[[setting]]
+label = "rkc-0.1"
+integrator = { kind = "rkc", atol_overlaps = 0.1 }
+)"),
+                                         "tiny.toml", scratch.path());
+  StudyOptions o;
+  o.out_dir = (std::filesystem::path(scratch.path()) / "out").string();
+  o.quiet = true;
+  o.jobs = 2;
+  o.no_plots = true;
+  ASSERT_EQ(run_compare(plan, o, timestep_section), 0);
+  // Every run is a point file of the sweep engine; a rerun reads them back, computing nothing.
+  const auto files = point_files(o.out_dir);
+  EXPECT_EQ(files.size(), 5u);  // the preparation and four settings
+  ASSERT_EQ(run_compare(plan, o, timestep_section), 0);
+  EXPECT_EQ(point_files(o.out_dir), files);
+
+  H5Reader r(o.out_dir + "/compare.h5");
+  for (const char* s : {"euler-0.02", "euler-0.05", "rkc-0.1"})
+    EXPECT_EQ(r.attr_int(std::string("/settings/") + s, "stable"), 1)
+        << s << ": " << r.attr_string(std::string("/settings/") + s, "why_unstable");
+  EXPECT_EQ(r.attr_int("/settings/euler-1.5", "stable"), 0);
+  // The shift is Euler's first-order bias at dt = 0.05 (or RKC's at 0.1 delta) plus noise: both
+  // well below 5 % of sigma_xy here, so the shift is below 5 % + 4 errors (4 sigma: the noise
+  // part exceeds it with probability below 1e-4).
+  const double s_ref = r.attr_double("/settings/euler-0.02/sigma_xy", "mean");
+  for (const char* s : {"euler-0.05", "rkc-0.1"}) {
+    const std::string g = std::string("/settings/") + s + "/sigma_xy";
+    const double d = std::abs(r.attr_double(g, "difference")) / std::abs(s_ref);
+    const double e = r.attr_double(g, "difference_err") / std::abs(s_ref);
+    EXPECT_GT(e, 0.0) << s;
+    EXPECT_LT(d, 0.05 + 4.0 * e) << s;
   }
-  // RKC runs beside the fixed steps, at atol = 0.1 overlaps.
-  EXPECT_EQ(r.attr_string(grkc, "family"), "rkc");
-  EXPECT_EQ(r.attr_string(grkc, "curve"), "rkc");
-  EXPECT_DOUBLE_EQ(r.attr_double(grkc, "tolerance"), 0.1);
-  EXPECT_GT(r.attr_double(grkc, "cpu_seconds"), 0.0);
-  // Euler far above its limit is unstable, the first unstable step, and meets no target.
-  EXPECT_DOUBLE_EQ(r.attr_double(g15, "step"), 1.5);
-  const std::string v15 = r.attr_string(g15, "verdict");
-  EXPECT_TRUE(v15 == "oscillating" || v15 == "diverged") << v15;
-  EXPECT_DOUBLE_EQ(r.attr_double("/points/p00", "first_unstable_euler_dt"), 1.5);
-  for (const auto& t : r.children("/targets")) {
-    const std::string text = r.attr_string("/targets/" + t, "p0");
-    EXPECT_EQ(text.find("dt=1.5"), std::string::npos) << text;
-  }
+  // The converged settings (the reference and dt = 0.05) entered the error model.
+  EXPECT_EQ(r.attr_int("/observables/sigma_xy", "converged_settings"), 2);
+  EXPECT_GE(r.attr_double("/observables/sigma_xy", "error_scale"), 1.0);
+
+  const std::string report = read_text(std::filesystem::path(o.out_dir) / "report.md");
+  const auto at = report.find("## Cheapest setting per accuracy target");
+  ASSERT_NE(at, std::string::npos) << report;
+  EXPECT_LT(at, report.find("## Recommendation"));
+  EXPECT_NE(report.find("First unstable Euler dt per state point: tiny: 1.5."), std::string::npos)
+      << report;
+  // dt = 1.5 is never counted as meeting a target.
+  EXPECT_EQ(report.find("euler-1.5 (", at), std::string::npos) << report;
 }
