@@ -35,7 +35,7 @@ done
 # The studies in stages: their HDF5 file, as a digest of its numbers (quick_numbers.py); a study
 # that is a comparison plan writes compare.h5, one per case (CASE/compare.h5) for a plan with
 # cases.
-declare -A h5=([stability]=stability.h5 [softness]=softness.h5)
+declare -A h5=([softness]=softness.h5)
 for study in timestep stability softness ensemble; do
   want "$study" || continue
   echo "quick-reference: $study"

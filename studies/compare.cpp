@@ -202,13 +202,27 @@ std::string csv_num(double v) {
   return buf;
 }
 
+// Each replica's class after its diagnostic window, the same ones counted once ("oscillating x
+// 2; stable x 1"); empty without diagnose = true.
+std::string window_classes(const ComparePlan& plan, const SettingRuns& sr) {
+  if (!plan.diagnose)
+    return {};
+  std::map<std::string, int> seen;
+  for (const DiagnosedRun& d : sr.replicas)
+    ++seen[verdict_name(d.cls.verdict) + (d.cls.laned ? ", lanes" : "")];
+  std::string cell;
+  for (const auto& [text, count] : seen)
+    cell += (cell.empty() ? "" : "; ") + text + " × " + std::to_string(count);
+  return cell;
+}
+
 std::string table_csv(const ComparePlan& plan, const std::vector<SettingRuns>& runs,
                       const analysis::CompareResult& res) {
   std::ostringstream os;
-  os << "setting,reference,integrator,ensemble,N,replicas,stable,within,rank,recommended,"
+  os << "setting,reference,integrator,dt,rtol,ensemble,N,replicas,stable,within,rank,recommended,"
         "cpu_per_tau,cpu_per_tau_err,cpu_per_particle_tau,cpu_per_particle_tau_err,"
         "energy_balance,energy_balance_err,force_step_correlation,steady_failed,"
-        "decorrelated_failed";
+        "decorrelated_failed,window";
   for (const auto& o : plan.observables)
     for (const char* c : {"", "_err", "_diff", "_diff_err", "_diff_source", "_floor", "_z",
                           "_block_std", "_block_std_err", "_replica_std", "_replica_std_err",
@@ -219,14 +233,19 @@ std::string table_csv(const ComparePlan& plan, const std::vector<SettingRuns>& r
   for (std::size_t s = 0; s < res.settings.size(); ++s) {
     const auto& r = res.settings[s];
     const auto& sr = runs[s];
+    const CompareMethod m = compare_method(plan, s);  // dt and rtol where the kind has them
     os << r.label << "," << (s == plan.reference ? 1 : 0) << "," << sr.integrator << ","
-       << sr.ensemble << "," << plan.settings[s].n << "," << sr.replicas.size() << ","
-       << (r.stable ? 1 : 0) << "," << (r.within ? 1 : 0) << "," << r.rank << ","
-       << (int(s) == res.recommended ? 1 : 0) << "," << csv_num(r.cpu_per_tau.value) << ","
-       << csv_num(r.cpu_per_tau.error) << "," << csv_num(r.cpu_per_particle_tau.value) << ","
-       << csv_num(r.cpu_per_particle_tau.error) << "," << csv_num(sr.balance) << ","
-       << csv_num(sr.balance_err) << "," << csv_num(sr.step_correlation) << "," << sr.steady_failed
-       << "," << sr.decorrelated_failed;
+       << csv_num(m.dt) << "," << csv_num(m.rtol) << "," << sr.ensemble << "," << plan.settings[s].n
+       << "," << sr.replicas.size() << "," << (r.stable ? 1 : 0) << "," << (r.within ? 1 : 0) << ","
+       << r.rank << "," << (int(s) == res.recommended ? 1 : 0) << ","
+       << csv_num(r.cpu_per_tau.value) << "," << csv_num(r.cpu_per_tau.error) << ","
+       << csv_num(r.cpu_per_particle_tau.value) << "," << csv_num(r.cpu_per_particle_tau.error)
+       << "," << csv_num(sr.balance) << "," << csv_num(sr.balance_err) << ","
+       << csv_num(sr.step_correlation) << "," << sr.steady_failed << "," << sr.decorrelated_failed
+       << ",";
+    std::string window = window_classes(plan, sr);  // "stable, lanes": no commas in a cell
+    std::replace(window.begin(), window.end(), ',', ';');
+    os << window;
     for (std::size_t o = 0; o < plan.observables.size(); ++o) {
       if (o >= r.observables.size()) {
         for (int c = 0; c < 17; ++c)
@@ -491,13 +510,7 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
          std::to_string(sr.steady_failed) + " / " + std::to_string(sr.replicas.size()),
          std::to_string(sr.decorrelated_failed) + " / " + std::to_string(sr.replicas.size())});
     if (plan.diagnose) {
-      // Each replica's classification after its diagnostic window, the same ones counted once.
-      std::map<std::string, int> seen;
-      for (const DiagnosedRun& d : sr.replicas)
-        ++seen[verdict_name(d.cls.verdict) + (d.cls.laned ? ", lanes" : "")];
-      std::string cell;
-      for (const auto& [text, count] : seen)
-        cell += (cell.empty() ? "" : "; ") + text + " × " + std::to_string(count);
+      const std::string cell = window_classes(plan, sr);
       rows.back().push_back(cell.empty() ? "—" : cell);
     }
   }
@@ -742,8 +755,8 @@ void write_cases_summary(const ComparePlan& top, const std::vector<CaseRuns>& ca
                          const std::string& section) {
   std::string csv,
       md = "# Comparison `" + top.name + "`: " + std::to_string(cases.size()) + " cases\n\n";
-  md += "The same settings against the reference `" + top.settings[top.reference].label +
-        "` in each case; each case's report is in its folder.\n\n";
+  md += "The settings against the reference `" + top.settings[top.reference].label +
+        "` (or the case's own) in each case; each case's report is in its folder.\n\n";
   std::vector<std::vector<std::string>> rows;
   for (std::size_t i = 0; i < cases.size(); ++i) {
     const ComparePlan& plan = *cases[i].plan;
@@ -752,6 +765,7 @@ void write_cases_summary(const ComparePlan& top, const std::vector<CaseRuns>& ca
     for (std::size_t s : res.unstable)
       unstable.push_back(plan.settings[s].label);
     rows.push_back({"[" + plan.label + "](" + plan.label + "/report.md)",
+                    plan.settings[plan.reference].label,
                     res.recommended >= 0 ? plan.settings[std::size_t(res.recommended)].label
                                          : std::string("none"),
                     unstable.empty() ? std::string("none") : join(unstable)});
@@ -763,7 +777,7 @@ void write_cases_summary(const ComparePlan& top, const std::vector<CaseRuns>& ca
       csv += (header ? std::string("case,") : plan.label + ",") + line + "\n";
     }
   }
-  md += markdown_table({"case", "cheapest within tolerance", "unstable"}, rows);
+  md += markdown_table({"case", "reference", "cheapest within tolerance", "unstable"}, rows);
   if (!section.empty())
     md += "\n" + section;
   write_text(out + "/table.csv", csv);
@@ -773,7 +787,7 @@ void write_cases_summary(const ComparePlan& top, const std::vector<CaseRuns>& ca
 }  // namespace
 
 int run_compare(const ComparePlan& top, const StudyOptions& options,
-                const CompareReportSection& section) {
+                const CompareReportSection& section, const std::vector<std::string>& plot_scripts) {
   ensure_dir(options.out_dir);
   const std::string study = top.study.empty() ? "compare" : top.study;
   std::vector<CaseRuns> cases;
@@ -914,6 +928,8 @@ int run_compare(const ComparePlan& top, const StudyOptions& options,
     write_case(cases[i], analyses[i], options, top.cases.empty() ? own : "");
   if (!top.cases.empty())
     write_cases_summary(top, cases, analyses, options.out_dir, own);
+  for (const std::string& script : plot_scripts)
+    run_plot(script, {options.out_dir + "/table.csv", options.out_dir}, options);
   return 0;
 }
 

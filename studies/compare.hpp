@@ -92,6 +92,16 @@ struct ComparePlan {
   std::vector<std::int64_t> sizes() const;
 };
 
+// A setting's integrator as the tables name it: its kind, its family (the kind, and for RESPA
+// its splitting: "respa particlesx4", "respa particlesx2 heun"), its fixed step and its relative
+// tolerance (NaN where the kind has none).
+struct CompareMethod {
+  std::string kind, family;
+  double dt = std::numeric_limits<double>::quiet_NaN();
+  double rtol = std::numeric_limits<double>::quiet_NaN();
+};
+CompareMethod compare_method(const ComparePlan& plan, std::size_t setting);
+
 // Reads and checks a compare file: every setting's scene and the preparation's go through the
 // checks of `jamflow run`, so a bad key or value is one ConfigError line naming the setting and
 // the key before anything runs.
@@ -115,9 +125,13 @@ struct CompareCaseOutcome {
 using CompareReportSection = std::function<std::string(const std::vector<CompareCaseOutcome>&)>;
 
 // Runs (or resumes, dry-runs, writes the Slurm array of) the comparison into options.out_dir
-// and writes the report; returns the exit status.
+// and writes the report; returns the exit status. `plot_scripts`: a study's own plots (paths
+// under the studies' folder, e.g. "stability/plot.py"), each run as `SCRIPT OUT/table.csv OUT`
+// after the report (OUT/table.csv has every case's rows, with a `case` column when there are
+// cases, and the integrator's dt and rtol and the diagnostic window's classes).
 int run_compare(const ComparePlan& plan, const StudyOptions& options,
-                const CompareReportSection& section = {});
+                const CompareReportSection& section = {},
+                const std::vector<std::string>& plot_scripts = {});
 
 // The compare file of a study's preset, shipped in the study's folder as <preset>.toml (installed
 // with the plot scripts); a preset without one is a ConfigError naming the allowed presets.

@@ -202,6 +202,29 @@ Scene ComparePlan::prepare_scene(std::int64_t n) const {
   return scene;
 }
 
+CompareMethod compare_method(const ComparePlan& plan, std::size_t setting) {
+  const Scene scene = plan.setting_scene(setting);
+  const toml::table* in = scene.table("integrator");
+  CompareMethod m;
+  m.kind = in ? (*in)["kind"].value_or(std::string("euler")) : std::string("euler");
+  m.family = m.kind;
+  if (!in)
+    return m;
+  if (m.kind == "euler" || m.kind == "respa")
+    m.dt = (*in)["dt"].value_or(kNaN);
+  if (m.kind == "cvode" || m.kind == "rkc")
+    m.rtol = (*in)["rtol"].value_or(kNaN);
+  if (m.kind == "respa") {
+    const std::string scheme = (*in)["inner_scheme"].value_or(std::string("euler"));
+    const std::string inner = (*in)["inner"].value_or(std::string("particles"));
+    m.family.append(" ").append(inner).append("x");
+    m.family.append(std::to_string((*in)["n_inner"].value_or(std::int64_t{1})));
+    if (scheme != "euler")
+      m.family.append(" ").append(scheme);
+  }
+  return m;
+}
+
 std::vector<std::int64_t> ComparePlan::sizes() const {
   std::vector<std::int64_t> out;
   for (const auto& s : settings)
@@ -553,10 +576,27 @@ ComparePlan case_plan(const ComparePlan& plan, const toml::table& t, const std::
   c.cases.clear();
   c.label = label;
   c.name = plan.name + "/" + label;
+  // reference = "LABEL": the case's own reference (a stiff state point needs a smaller step);
+  // read before `settings`, which must keep it.
+  if (const toml::node* r = t.get("reference")) {
+    const auto label = r->value<std::string>();
+    std::size_t idx = c.settings.size();
+    for (std::size_t i = 0; i < c.settings.size() && label; ++i)
+      if (c.settings[i].label == *label)
+        idx = i;
+    if (idx == c.settings.size()) {
+      std::vector<std::string> labels;
+      for (const auto& s : c.settings)
+        labels.push_back(s.label);
+      throw ConfigError(where + "reference = " + show(*r) +
+                        "; allowed the label of a setting: " + join(labels));
+    }
+    c.reference = idx;
+  }
   toml::table base;
   for (const auto& [k, v] : t) {
     const std::string section(k.str());
-    if (section == "label")
+    if (section == "label" || section == "reference")
       continue;
     if (section == "settings") {
       select_settings(c, v, where);
@@ -567,7 +607,7 @@ ComparePlan case_plan(const ComparePlan& plan, const toml::table& t, const std::
                                                        "prepare"};
     if (!keys || std::find(kSections.begin(), kSections.end(), section) == kSections.end())
       throw ConfigError(where + "key " + section + " = " + show(v) +
-                        "; allowed label, settings and the tables " + join(kSections));
+                        "; allowed label, reference, settings and the tables " + join(kSections));
     if (section == "prepare" && !plan.init.empty())
       throw ConfigError(where + "[prepare] with [prepare] init = \"" + plan.init +
                         "\"; allowed with a preparation run ([prepare] t)");

@@ -275,13 +275,6 @@ struct IntegratorSetting {
   double dt() const { return settings.number("dt").value_or(0.0); }
 };
 IntegratorSetting euler_setting(double dt);
-// A RESPA splitting the stability and timestep studies scan: the inner level, its sub-steps and
-// the scheme, as respa_setting takes them.
-struct RespaSplitting {
-  std::string inner;  // "particles" | "piston"
-  int n_inner = 4;
-  std::string scheme;  // "euler" | "heun"
-};
 // RESPA (see integrators/respa.hpp): inner level "particles" | "piston", scheme euler | heun.
 IntegratorSetting respa_setting(double dt, int n_inner, const std::string& inner,
                                 const std::string& scheme);

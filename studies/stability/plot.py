@@ -1,13 +1,14 @@
-"""Stability study plots from stability.h5 (studies/stability).
+"""Stability study plots from the comparison's table (studies/stability).
 
-usage: plot.py stability.h5 OUT_DIR
-Writes stability_map.png (verdict per case against dt / tolerance, one panel per integrator
-family) and stability_diagnostics.png (energy balance and force step correlation against dt
-for explicit Euler).
+usage: plot.py OUT/table.csv OUT_DIR
+Writes stability_map.png (each case's verdict against the step or tolerance, one panel per
+integrator family; the class of the diagnostic window, the `window` column) and
+stability_diagnostics.png (energy balance and force step correlation against explicit Euler's
+step, diverged runs left out).
 """
+import csv
 import sys
 
-import h5py
 import matplotlib
 
 matplotlib.use("Agg")
@@ -19,59 +20,60 @@ COLORS = {"stable": "tab:green", "oscillating": "tab:orange", "diverged": "tab:r
           "not available": "lightgrey"}
 
 
-def text(v):
-    return v.decode() if isinstance(v, bytes) else str(v)
+def number(v):
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
+def window_class(cell):
+    """'oscillating × 1' -> ('oscillating', False); 'stable; lanes × 1' -> ('stable', True)."""
+    first = (cell or "not available").split(" × ")[0]
+    return first.replace("; lanes", "").strip(), "lanes" in first
 
 
 def load(path):
-    cases = []
-    with h5py.File(path, "r") as f:
-        for key in sorted(f["cases"].keys()):
-            g = f["cases"][key]
-            runs = []
-            if "runs" in g:
-                for rk in sorted(g["runs"].keys()):
-                    a = g["runs"][rk].attrs
-                    runs.append({k: (text(a[k]) if isinstance(a[k], (bytes, str)) else a[k])
-                                 for k in a.keys()})
-            cases.append({"name": text(g.attrs["name"]), "runs": runs})
-    return cases
+    cases = {}
+    with open(path, newline="") as f:
+        for row in csv.DictReader(f):
+            cases.setdefault(row.get("case", ""), []).append(row)
+    return list(cases.items())
 
 
 def main():
     path, out = sys.argv[1], sys.argv[2]
     cases = load(path)
-    families = [("euler", "step", "Euler: dt"), ("respa", "step", "RESPA: outer dt"),
-                ("cvode", "tolerance", "CVODE: rtol")]
-    fig, axes = plt.subplots(1, 3, figsize=(15, 0.45 * len(cases) + 2.0), sharey=True)
-    for ax, (fam, key, label) in zip(axes, families):
-        for yi, c in enumerate(cases):
-            for r in c["runs"]:
-                if r.get("family") != fam:
+    families = [("euler", "dt", "Euler: dt"), ("respa", "dt", "RESPA: outer dt"),
+                ("cvode", "rtol", "CVODE: rtol"), ("rkc", "rtol", "RKC: rtol")]
+    present = [f for f in families if any(r["integrator"] == f[0] for _, rows in cases for r in rows)]
+    fig, axes = plt.subplots(1, len(present), figsize=(5 * len(present), 0.45 * len(cases) + 2.0),
+                             sharey=True, squeeze=False)
+    axes = axes[0]
+    for ax, (fam, key, label) in zip(axes, present):
+        for yi, (name, rows) in enumerate(cases):
+            for r in rows:
+                x = number(r.get(key))
+                if r["integrator"] != fam or not x > 0:
                     continue
-                x = float(r.get(key, 0.0))
-                if x <= 0:
-                    continue
-                v = r.get("verdict", "not available")
-                marker = "s" if int(r.get("laned", 0)) else "o"
+                verdict, lanes = window_class(r.get("window"))
                 # Several RESPA splittings at one dt: offset them slightly.
-                off = 0.0
-                if fam == "respa":
-                    s = r.get("setting", "")
-                    off = 0.18 if "piston" in s else (-0.18 if "heun" in s else 0.0)
-                ax.scatter([x], [yi + off], c=COLORS.get(v, "k"), marker=marker, s=60,
-                           edgecolors="k", linewidths=0.4)
+                s = r["setting"]
+                off = (0.18 if "piston" in s else (-0.18 if "heun" in s else 0.0)) \
+                    if fam == "respa" else 0.0
+                ax.scatter([x], [yi + off], c=COLORS.get(verdict, "k"), marker="s" if lanes else "o",
+                           s=60, edgecolors="k", linewidths=0.4)
         ax.set_xscale("log")
         ax.set_xlabel(label)
         ax.grid(alpha=0.3)
     axes[0].set_yticks(range(len(cases)))
-    axes[0].set_yticklabels([c["name"] for c in cases])
+    axes[0].set_yticklabels([name for name, _ in cases])
     axes[0].invert_yaxis()
     handles = [plt.Line2D([], [], marker="o", ls="", color=c, markeredgecolor="k", label=k)
                for k, c in COLORS.items()]
     handles.append(plt.Line2D([], [], marker="s", ls="", color="w", markeredgecolor="k",
                               label="lanes"))
-    axes[2].legend(handles=handles, loc="best", fontsize=8)
+    axes[-1].legend(handles=handles, loc="best", fontsize=8)
     fig.suptitle("Stable / oscillating / diverged map")
     fig.tight_layout()
     fig.savefig(f"{out}/stability_map.png", dpi=110)
@@ -79,16 +81,17 @@ def main():
 
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(13, 5))
     cmap = plt.get_cmap("tab20")
-    for ci, c in enumerate(cases):
-        pts = sorted((float(r["step"]), float(r.get("balance_ratio", np.nan)),
-                      float(r.get("force_correlation", np.nan)))
-                     for r in c["runs"]
-                     if r.get("family") == "euler" and r.get("verdict") in ("stable", "oscillating"))
+    for ci, (name, rows) in enumerate(cases):
+        pts = sorted((number(r["dt"]), number(r["energy_balance"]),
+                      number(r["force_step_correlation"]))
+                     for r in rows if r["integrator"] == "euler"
+                     and window_class(r.get("window"))[0] not in ("diverged", "not available"))
+        pts = [p for p in pts if np.isfinite(p[1])]
         if not pts:
             continue
         dt, eb, fc = map(np.array, zip(*pts))
-        a1.plot(dt, np.abs(eb), "o-", ms=4, color=cmap(ci % 20), label=c["name"])
-        a2.plot(dt, fc, "o-", ms=4, color=cmap(ci % 20), label=c["name"])
+        a1.plot(dt, np.abs(eb), "o-", ms=4, color=cmap(ci % 20), label=name)
+        a2.plot(dt, fc, "o-", ms=4, color=cmap(ci % 20), label=name)
     a1.axhspan(0.95, 1.05, color="tab:green", alpha=0.15)
     a1.set_xscale("log")
     a1.set_yscale("log")

@@ -27,34 +27,6 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// A setting's integrator as the tables name it: its family ("euler", "respa particlesx4",
-// "respa particlesx2 heun", "cvode", "rkc") and fixed step (NaN for adaptive ones).
-struct Method {
-  std::string family;
-  double dt = kNaN;
-};
-
-Method method_of(const ComparePlan& plan, std::size_t s) {
-  const Scene scene = plan.setting_scene(s);
-  const toml::table* in = scene.table("integrator");
-  Method m;
-  if (!in)
-    return m;
-  const std::string kind = (*in)["kind"].value_or(std::string("euler"));
-  m.family = kind;
-  if (kind == "euler" || kind == "respa")
-    m.dt = (*in)["dt"].value_or(kNaN);
-  if (kind == "respa") {
-    const std::string scheme = (*in)["inner_scheme"].value_or(std::string("euler"));
-    const std::string inner = (*in)["inner"].value_or(std::string("particles"));
-    m.family.append(" ").append(inner).append("x");
-    m.family.append(std::to_string((*in)["n_inner"].value_or(std::int64_t{1})));
-    if (scheme != "euler")
-      m.family.append(" ").append(scheme);
-  }
-  return m;
-}
-
 std::size_t observable_index(const ComparePlan& plan, const std::string& name) {
   const auto it = std::find(plan.observables.begin(), plan.observables.end(), name);
   return static_cast<std::size_t>(it - plan.observables.begin());
@@ -201,7 +173,7 @@ std::string claim_cell(const CompareCaseOutcome& c, int s) {
 double first_unstable_euler(const CompareCaseOutcome& c) {
   std::vector<std::pair<double, bool>> steps;  // (dt, oscillating or diverged)
   for (std::size_t s = 0; s < c.plan->settings.size(); ++s) {
-    const Method m = method_of(*c.plan, s);
+    const CompareMethod m = compare_method(*c.plan, s);
     if (m.family != "euler" || c.runs[s].empty())
       continue;
     const bool bad = std::any_of(c.runs[s].begin(), c.runs[s].end(), [](const DiagnosedRun* d) {
@@ -259,7 +231,7 @@ std::string timestep_section(const std::vector<CompareCaseOutcome>& cases) {
       for (double dt : claim_dts) {
         int found = -1;
         for (std::size_t s = 0; s < c.plan->settings.size() && found < 0; ++s) {
-          const Method m = method_of(*c.plan, s);
+          const CompareMethod m = compare_method(*c.plan, s);
           if (m.family == family && std::abs(m.dt - dt) < 1e-12)
             found = static_cast<int>(s);
         }

@@ -442,6 +442,12 @@ sed 's/^prepare = { integrator = { dt = 0.02 } }$/prepare = { replicas = 2 }/' c
 expect_error "a case's preparation key" "bad.toml: \[\[case\]\] 'phi0.64-slow': prepare: unknown key replicas = 2; allowed t, sample_every, and overrides"
 sed 's/^diagnose = true$/diagnose = 1/' cases.toml > bad.toml
 expect_error "diagnose not a bool" "diagnose = 1; allowed true or false"
+sed 's/^label = "phi0.64-slow"$/label = "phi0.64-slow"\nreference = "euler-2"/' cases.toml > bad.toml
+expect_error "a case's reference not a setting" "'phi0.64-slow': reference = .euler-2.; allowed the label of a setting: euler-0.05, euler-1, euler-0.1"
+sed 's/^label = "phi0.64-slow"$/label = "phi0.64-slow"\nreference = "euler-0.1"/' cases.toml > bad.toml
+expect_error "a case's reference outside its settings" "settings: the reference 'euler-0.1' is not among them"
+sed 's/^label = "euler-0.1"$/label = "euler-0.1"\nconverged = 1/' cases.toml > bad.toml
+expect_error "converged not a bool" "'euler-0.1': converged = 1; allowed true or false"
 
 # ---- The sweep engine's other runners: a Slurm job array for the next stage, and MPI ranks.
 "$jamflow" compare small.toml --slurm --out slurm.out > slurm.txt 2>&1

@@ -202,7 +202,7 @@ fi
 
 for study in timestep stability softness ensemble; do
   case "$study" in
-    ensemble | timestep) stage=prepare ;;
+    ensemble | timestep | stability) stage=prepare ;;
     *) stage=prep ;;
   esac
   line=$("$jamflow" study "$study" --preset quick --dry-run --out "$work/dry-$study" 2>&1)

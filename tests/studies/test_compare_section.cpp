@@ -125,7 +125,7 @@ system = { phi = 0.55 }
   const std::string top = read_text(fs::path(o.out_dir) / "report.md");
   const auto at = top.find("## The test study's section");
   ASSERT_NE(at, std::string::npos) << top;
-  EXPECT_GT(at, top.find("| case | cheapest within tolerance | unstable |"));
+  EXPECT_GT(at, top.find("| case | reference | cheapest within tolerance | unstable |"));
   EXPECT_NE(top.find("- case 'dilute', coarse: 2 runs, unstable", at), std::string::npos) << top;
   for (const char* c : {"dense", "dilute"}) {
     const std::string report = read_text(fs::path(o.out_dir) / c / "report.md");
