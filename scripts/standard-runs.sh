@@ -39,7 +39,16 @@ case "$cmd" in
       studies+=("$1")
       shift
     done
-    extra=("$@")  # options for `jamflow study`
+    extra=()  # options for `jamflow study`; a --reuse folder made absolute (the study runs elsewhere)
+    while [ $# -gt 0 ]; do
+      if [ "$1" = "--reuse" ] && [ $# -gt 1 ]; then
+        extra+=("$1" "$(realpath -m "$2")")
+        shift 2
+      else
+        extra+=("$1")
+        shift
+      fi
+    done
     for s in "${studies[@]}"; do
       [ -d "$root/studies/$s" ] || { echo "standard-runs: no study '$s' in studies/" >&2; exit 2; }
       if [ -n "$(study_pid "$s")" ]; then
