@@ -316,7 +316,8 @@ double ViscosityLaw::eta(double phi) const {
 }
 
 ViscosityLaw viscosity_law(std::vector<double> params, std::vector<double> covariance,
-                           std::string source, double window_min, double window_max) {
+                           std::string source, double window_min, double window_max,
+                           const std::vector<double>& systematic) {
   ViscosityLaw law;
   law.params = std::move(params);
   law.covariance = std::move(covariance);
@@ -362,6 +363,26 @@ ViscosityLaw viscosity_law(std::vector<double> params, std::vector<double> covar
                                         "local viscosity exponent at phimin");
   law.local_exponent_at_max = propagate([&](P p) { return local(p, window_max); }, law.params, cov,
                                         "local viscosity exponent at phimax");
+  // The systematic errors, propagated as independent (a diagonal covariance of their squares).
+  if (!systematic.empty()) {
+    std::vector<double> sys_cov(law.params.size() * law.params.size(), 0.0);
+    for (std::size_t k = 0; k < law.params.size() && k < systematic.size(); ++k)
+      sys_cov[k * (law.params.size() + 1)] =
+          std::isfinite(systematic[k]) ? systematic[k] * systematic[k] : 0.0;
+    law.exponent_1_systematic =
+        propagate([](P p) { return 1.0 / p[1]; }, law.params, sys_cov, "1/b_phi").error;
+    law.exponent_2_systematic =
+        propagate([](P p) { return (1.0 - p[4]) / p[1]; }, law.params, sys_cov, "(1-b_mu)/b_phi")
+            .error;
+    law.effective_exponent_systematic =
+        propagate(
+            [&](P p) {
+              return std::log(eta_of(p, window_max) / eta_of(p, window_min)) /
+                     std::log((p[0] - window_min) / (p[0] - window_max));
+            },
+            law.params, sys_cov, "effective viscosity exponent")
+            .error;
+  }
   return law;
 }
 
@@ -717,7 +738,7 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
 
   // Viscosity law: N -> infinity parameters when all six extrapolated, else
   // the largest size (stated in the output).
-  std::vector<double> params, cov;
+  std::vector<double> params, cov, systematic;
   std::string source;
   bool all = !r.extrapolations.empty();
   for (const auto& name : names)
@@ -733,6 +754,15 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
     source = "N -> infinity";
   } else {
     size_parameters(r.sizes.back(), params, cov);
+    for (const auto& name : names) {  // Table 2 order: phi_J, b_phi, C_phi, mu_J, b_mu, C_mu
+      const bool phi = name.find("phi") != std::string::npos;
+      const ErrorModel& em = phi ? r.sizes.back().phi_errors : r.sizes.back().mu_errors;
+      double sys = 0.0;
+      for (const auto& pe : em.parameters)
+        if (pe.name == name)
+          sys = pe.systematic();
+      systematic.push_back(sys);
+    }
     source = "N = " + std::to_string(r.sizes.back().n);
     r.warnings.push_back("viscosity law uses the largest size (" + source +
                          ") because the N -> infinity extrapolation is not available");
@@ -743,7 +773,7 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
   // An explicit window outside the law's domain is a usage error (InputError
   // propagates); a numerical failure is recorded and the rest still written.
   try {
-    r.viscosity = viscosity_law(params, cov, source, wmin, wmax);
+    r.viscosity = viscosity_law(params, cov, source, wmin, wmax, systematic);
   } catch (const FitError& e) {
     r.failures.push_back(e.what());
   }

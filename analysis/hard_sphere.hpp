@@ -161,12 +161,19 @@ struct ViscosityLaw {
   double window_min = 0.0, window_max = 0.0;
   Measured effective_exponent;  // chord slope over the window
   Measured local_exponent_at_min, local_exponent_at_max;
+  // Systematic errors of the exponents: the parameters' systematic errors (J window and fit
+  // form, analysis/error_model.hpp) propagated as independent; 0 where the parameters carry none
+  // (the N -> infinity extrapolations). The Measured errors above are statistical only.
+  double exponent_1_systematic = 0.0, exponent_2_systematic = 0.0;
+  double effective_exponent_systematic = 0.0;
 
   double eta(double phi) const;  // eta / eta_0
 };
 
+// `systematic`: each parameter's systematic error (Table 2 order; empty: none).
 ViscosityLaw viscosity_law(std::vector<double> params, std::vector<double> covariance,
-                           std::string source, double window_min, double window_max);
+                           std::string source, double window_min, double window_max,
+                           const std::vector<double>& systematic = {});
 
 // A size whose envelope holds too few points for the fits (or whose fit failed):
 // its envelope is still reported.

@@ -216,12 +216,17 @@ Json viscosity_json(const ViscosityLaw& v) {
   j["formula"] =
       "eta/eta_0 = amplitude_1 (phi_J - phi)^-exponent_1 + amplitude_2 (phi_J - phi)^-exponent_2";
   j["amplitude_1"] = measured_json(v.amplitude_1);
+  // The exponents' "error" is statistical; "systematic" is the parameters' systematic errors
+  // propagated (analysis/hard_sphere.hpp ViscosityLaw).
   j["exponent_1"] = measured_json(v.exponent_1);
+  j["exponent_1"]["systematic"] = v.exponent_1_systematic;
   j["amplitude_2"] = measured_json(v.amplitude_2);
   j["exponent_2"] = measured_json(v.exponent_2);
+  j["exponent_2"]["systematic"] = v.exponent_2_systematic;
   j["crossover_delta_phi"] = measured_json(v.crossover_delta_phi);
   j["window"] = Json(std::vector<double>{v.window_min, v.window_max});
   j["effective_exponent"] = measured_json(v.effective_exponent);
+  j["effective_exponent"]["systematic"] = v.effective_exponent_systematic;
   j["local_exponent_at_phimin"] = measured_json(v.local_exponent_at_min);
   j["local_exponent_at_phimax"] = measured_json(v.local_exponent_at_max);
   // The seed's trade-off (Sec. IV C): an effective exponent anywhere between the subleading
@@ -489,15 +494,19 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
     md << "eta/eta_0 = a1 (phi_J - phi)^-e1 + a2 (phi_J - phi)^-e2\n\n";
     md << "| quantity | value | paper |\n|---|---|---|\n";
     md << "| a1 = mu_J C_phi^(1/b_phi) | " << format_measured(v.amplitude_1) << " | |\n";
-    md << "| e1 = 1/b_phi (asymptotic) | " << format_measured(v.exponent_1) << " | "
-       << fmt(seed::kViscosityExponentHigh) << " |\n";
+    // (The exponents' second number is their systematic error.)
+    auto with_sys = [](const Measured& m, double sys) {
+      return format_measured(m) + " ± " + fmt(sys) + " (systematic)";
+    };
+    md << "| e1 = 1/b_phi (asymptotic) | " << with_sys(v.exponent_1, v.exponent_1_systematic)
+       << " | " << fmt(seed::kViscosityExponentHigh) << " |\n";
     md << "| a2 = C_mu C_phi^((1-b_mu)/b_phi) | " << format_measured(v.amplitude_2) << " | |\n";
-    md << "| e2 = (1-b_mu)/b_phi | " << format_measured(v.exponent_2) << " | "
+    md << "| e2 = (1-b_mu)/b_phi | " << with_sys(v.exponent_2, v.exponent_2_systematic) << " | "
        << fmt(seed::kViscosityExponentLow) << " |\n";
     md << "| crossover phi_J - phi | " << format_measured(v.crossover_delta_phi)
        << " | about 0.02 |\n";
     md << "| effective exponent over phi in [" << fmt(v.window_min) << ", " << fmt(v.window_max)
-       << "] | " << format_measured(v.effective_exponent) << " | in ["
+       << "] | " << with_sys(v.effective_exponent, v.effective_exponent_systematic) << " | in ["
        << fmt(seed::kViscosityExponentLow) << ", " << fmt(seed::kViscosityExponentHigh) << "] |\n";
     md << "| local exponent at phi = " << fmt(v.window_min) << " | "
        << format_measured(v.local_exponent_at_min) << " | |\n";

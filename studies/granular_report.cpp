@@ -494,13 +494,27 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
   }
   if (result.is_object() && result.contains("viscosity")) {
     const auto& vis = result.at("viscosity");
-    double v = 0.0, e = 0.0;
+    double v = 0.0;
     md << "## Viscosity divergence (Fig. 7)\n\n";
     md << "The law eta/eta_0 = mu_J [C_phi/(phi_J - phi)]^(1/b_phi) + C_mu [C_phi/(phi_J - "
           "phi)]^((1 - b_mu)/b_phi) with the parameters of "
        << vis.at("source").as_string() << ".\n";
-    if (measured(vis, "effective_exponent", v, e))
-      md << "Effective exponent beta = -d ln eta / d ln(phi_J - phi) over the window: " << pm(v, e)
+    // An exponent's statistical error, its systematic one (the parameters' J-window and form
+    // systematics, propagated) and the text "a ± s (statistical) ± y (systematic)".
+    auto exponent = [&](const char* key, double& value, double& total) {
+      double stat = 0.0;
+      if (!measured(vis, key, value, stat))
+        return std::string();
+      const auto& x = vis.at(key);
+      const double sys = x.contains("systematic") && x.at("systematic").is_number()
+                             ? x.at("systematic").as_number()
+                             : 0.0;
+      total = std::hypot(stat, sys);
+      return pm(value, stat) + " (statistical) ± " + num(sys, 2) + " (systematic)";
+    };
+    double total = 0.0;
+    if (const std::string t = exponent("effective_exponent", v, total); !t.empty())
+      md << "Effective exponent beta = -d ln eta / d ln(phi_J - phi) over the window: " << t
          << ".\n";
     if (vis.contains("beta_interval")) {
       const auto& bi = vis.at("beta_interval");
@@ -509,10 +523,10 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
          << "] (the seed's: [" << num(seed::kViscosityExponentLow, 3) << ", "
          << num(seed::kViscosityExponentHigh, 3) << "]).\n";
     }
-    if (measured(vis, "exponent_1", v, e))
-      md << "Asymptotic exponent 1/b_phi = " << pm(v, e) << " (seed "
+    if (const std::string t = exponent("exponent_1", v, total); !t.empty())
+      md << "Asymptotic exponent 1/b_phi = " << t << " (seed "
          << num(seed::kViscosityExponentHigh, 3) << ", "
-         << sigma_text(v, e, seed::kViscosityExponentHigh) << ").\n";
+         << sigma_text(v, total, seed::kViscosityExponentHigh) << ", both errors in quadrature).\n";
     if (result.contains("sizes")) {
       for (const auto& [n, fit] : result.at("sizes").members()) {
         if (fit.contains("degenerate") && fit.at("degenerate").as_bool() &&

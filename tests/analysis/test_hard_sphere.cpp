@@ -377,6 +377,29 @@ TEST(ViscosityLaw, ReproducesThePapersExponentsAndCrossover) {
   EXPECT_NEAR(v.eta(phi), (t.mu_j + t.c_mu * std::pow(j, t.b_mu)) / j, 1e-10 * v.eta(phi));
 }
 
+TEST(ViscosityLaw, ParametersSystematicErrorsPropagateToTheExponents) {
+  const auto t = testing::table2_infinite();
+  std::vector<double> params = {t.phi_j, t.b_phi, t.c_phi, t.mu_j, t.b_mu, t.c_mu};
+  std::vector<double> cov(36, 0.0);
+  for (int k = 0; k < 6; ++k)
+    cov[k * 7] = std::pow(1e-3 * params[k], 2);
+  // Without systematics the exponents carry none; their statistical errors do not change with
+  // them.
+  const ViscosityLaw none = viscosity_law(params, cov, "x", t.phi_j - 0.1, t.phi_j - 0.01);
+  EXPECT_EQ(none.exponent_1_systematic, 0.0);
+  EXPECT_EQ(none.effective_exponent_systematic, 0.0);
+  // A systematic of 0.04 in b_phi and 0.09 in b_mu (the size of the J-window shifts of a fit at
+  // N = 1000): d(1/b)/db = -1/b^2, and (1 - b_mu)/b_phi moves with both, in quadrature.
+  const std::vector<double> sys = {0.0, 0.04, 0.0, 0.0, 0.09, 0.0};
+  const ViscosityLaw v = viscosity_law(params, cov, "x", t.phi_j - 0.1, t.phi_j - 0.01, sys);
+  EXPECT_NEAR(v.exponent_1_systematic, 0.04 / (t.b_phi * t.b_phi), 1e-3 * v.exponent_1_systematic);
+  EXPECT_NEAR(v.exponent_2_systematic,
+              std::hypot(0.04 * (1 - t.b_mu) / (t.b_phi * t.b_phi), 0.09 / t.b_phi),
+              1e-3 * v.exponent_2_systematic);
+  EXPECT_GT(v.effective_exponent_systematic, 0.0);
+  EXPECT_DOUBLE_EQ(v.exponent_1.error, none.exponent_1.error);
+}
+
 TEST(ViscosityLaw, WindowOutsideTheDomainIsAUsageError) {
   const auto t = testing::table2_infinite();
   std::vector<double> params = {t.phi_j, t.b_phi, t.c_phi, t.mu_j, t.b_mu, t.c_mu};

@@ -162,6 +162,34 @@ TEST(ReportsFromJson, HardSpherePhiJChangesTheReport) {
   expect_phi_j_drives_the_verdict("hard-sphere", in, result, "1000");
 }
 
+// The asymptotic viscosity exponent's verdict against the seed carries the systematic error the
+// JSON gives it: the same value is a disagreement with statistical errors alone and not with a
+// systematic ten times larger.
+TEST(ReportsFromJson, HardSphereViscosityExponentVerdictCarriesItsSystematic) {
+  GridInputs in;
+  load_grid(in, "hard-sphere");
+  ASSERT_TRUE(in.result.contains("viscosity"));
+  Json result = in.result;
+  Json& e1 = result["viscosity"]["exponent_1"];
+  const double stat = e1.at("error").as_number();
+  const double value = seed::kViscosityExponentHigh + 5.0 * stat;
+  e1["value"] = value;
+  e1["systematic"] = 0.0;
+  const std::string alone =
+      line_starting(grid_report("hard-sphere", in, result), "Asymptotic exponent 1/b_phi = ");
+  ASSERT_FALSE(alone.empty());
+  EXPECT_NE(alone.find("+5.0 sigma (disagrees)"), std::string::npos) << alone;
+  e1["systematic"] = 10.0 * stat;
+  const std::string both =
+      line_starting(grid_report("hard-sphere", in, result), "Asymptotic exponent 1/b_phi = ");
+  EXPECT_NE(
+      both.find(pm(value, stat) + " (statistical) ± " + num(10.0 * stat, 2) + " (systematic)"),
+      std::string::npos)
+      << both;
+  EXPECT_NE(both.find("+0.5 sigma"), std::string::npos) << both;
+  EXPECT_EQ(both.find("disagrees"), std::string::npos) << both;
+}
+
 // --- soft-rheology -------------------------------------------------------------------------------
 
 struct SoftInputs {
