@@ -34,7 +34,7 @@ for study in hard-sphere finite-size soft-rheology olsson-teitel; do
 done
 # The studies in stages: their HDF5 file, as a digest of its numbers (quick_numbers.py); a study
 # that is a comparison plan writes compare.h5, one per case (CASE/compare.h5) for a plan with
-# cases.
+# cases, and its section's numbers in STUDY.h5.
 declare -A h5=([softness]=softness.h5)
 for study in timestep stability softness ensemble; do
   want "$study" || continue
@@ -46,7 +46,7 @@ for study in timestep stability softness ensemble; do
   if [ -n "${h5[$study]:-}" ]; then
     outs="${h5[$study]}"
   else
-    outs=$(cd "$work/$study" && find . -name compare.h5 -not -path "*/runs/*" | sed 's|^\./||' | sort)
+    outs=$(cd "$work/$study" && find . \( -name compare.h5 -o -name "$study.h5" \) -not -path "*/runs/*" | sed 's|^\./||' | sort)
   fi
   for f in $outs; do
     mkdir -p "$(dirname "$ref/$f")"

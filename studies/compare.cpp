@@ -12,6 +12,7 @@
 #include <iterator>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -908,7 +909,7 @@ int run_compare(const ComparePlan& top, const StudyOptions& options,
   std::vector<CaseAnalysis> analyses;
   for (const CaseRuns& c : cases)
     analyses.push_back(analyse_case(c, done));
-  std::string own;  // the study's section, from every case's outcome
+  CompareSection own;  // the study's section, from every case's outcome
   if (section) {
     std::vector<CompareCaseOutcome> outcomes;
     for (std::size_t i = 0; i < cases.size(); ++i) {
@@ -925,9 +926,25 @@ int run_compare(const ComparePlan& top, const StudyOptions& options,
     own = section(outcomes);
   }
   for (std::size_t i = 0; i < cases.size(); ++i)
-    write_case(cases[i], analyses[i], options, top.cases.empty() ? own : "");
+    write_case(cases[i], analyses[i], options, top.cases.empty() ? own.markdown : "");
   if (!top.cases.empty())
-    write_cases_summary(top, cases, analyses, options.out_dir, own);
+    write_cases_summary(top, cases, analyses, options.out_dir, own.markdown);
+  if (!own.values.empty()) {
+    H5Writer w(options.out_dir + "/" + (top.study.empty() ? top.name : top.study) + ".h5");
+    w.attr("/", "compare_file", top.path);
+    std::set<std::string> made = {"/"};
+    for (const auto& [group, attributes] : own.values) {
+      for (std::size_t at = group.find('/', 1);; at = group.find('/', at + 1)) {
+        const std::string g = group.substr(0, at);  // each parent, then the group itself
+        if (made.insert(g).second)
+          w.group(g);
+        if (at == std::string::npos)
+          break;
+      }
+      w.attrs(group, attributes);
+    }
+    w.commit();
+  }
   for (const std::string& script : plot_scripts)
     run_plot(script, {options.out_dir + "/table.csv", options.out_dir}, options);
   return 0;

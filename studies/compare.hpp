@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "analysis/compare.hpp"
+#include "lib/attributes.hpp"
 #include "lib/config.hpp"
 #include "studies/diagnostics.hpp"
 #include "studies/study.hpp"
@@ -118,11 +119,21 @@ struct CompareCaseOutcome {
   std::vector<std::vector<const DiagnosedRun*>> runs;  // [setting][replica]
 };
 
+// What a study's own section adds to a comparison's report: markdown and, for programs, its
+// conclusions as HDF5 attributes (group path -> attributes), written to OUT/<study>.h5 (the
+// compare file's stem for `jamflow compare`). A section that only writes text returns a string.
+struct CompareSection {
+  CompareSection() = default;
+  CompareSection(std::string text) : markdown(std::move(text)) {}  // NOLINT: implicit
+  std::string markdown;
+  std::vector<std::pair<std::string, Attributes>> values;
+};
+
 // A study's own section of a comparison's report (the seed's numbers beside the comparison's,
-// the largest stable step per case, ...): markdown from every case's outcome, a pure function of
-// the runs and their analysis. Without [[case]] it goes into report.md before the
-// recommendation; with cases, at the end of OUT/report.md, after the table of cases.
-using CompareReportSection = std::function<std::string(const std::vector<CompareCaseOutcome>&)>;
+// the largest stable step per case, ...), a pure function of every case's runs and their
+// analysis. Without [[case]] its markdown goes into report.md before the recommendation; with
+// cases, at the end of OUT/report.md, after the table of cases.
+using CompareReportSection = std::function<CompareSection(const std::vector<CompareCaseOutcome>&)>;
 
 // Runs (or resumes, dry-runs, writes the Slurm array of) the comparison into options.out_dir
 // and writes the report; returns the exit status. `plot_scripts`: a study's own plots (paths

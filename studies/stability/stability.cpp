@@ -174,23 +174,33 @@ std::vector<T> distinct(std::vector<T> v) {
   return v;
 }
 
-std::string threshold_text(const std::vector<SizeRun>& runs, double pressure, double dt,
-                           std::int64_t largest_size) {
+// Per pressure and step: the largest size that oscillated or diverged, the smallest from which
+// every larger size held (0: none), and whether every size gave a verdict either way.
+struct SizeThreshold {
+  std::int64_t largest_failing = 0, smallest_holding = 0;
+  bool complete = true;
+};
+
+SizeThreshold size_threshold(const std::vector<SizeRun>& runs, double pressure, double dt) {
   std::vector<std::pair<std::int64_t, Verdict>> v;
   for (const auto& r : runs)
     if (r.pressure == pressure && r.dt == dt)
       v.emplace_back(r.n, verdict_of(*r.c, r.s));
   std::sort(v.begin(), v.end());
-  std::int64_t largest_failing = 0, smallest_holding = 0;
-  bool complete = true;
+  SizeThreshold t;
   for (const auto& [n, verdict] : v) {
     if (oscillates(verdict))
-      largest_failing = n;
+      t.largest_failing = n;
     else if (!holds(verdict))
-      complete = false;
+      t.complete = false;
   }
   for (auto it = v.rbegin(); it != v.rend() && holds(it->second); ++it)
-    smallest_holding = it->first;
+    t.smallest_holding = it->first;
+  return t;
+}
+
+std::string threshold_text(const SizeThreshold& t, std::int64_t largest_size) {
+  const auto [largest_failing, smallest_holding, complete] = t;
   std::string out;
   if (largest_failing == 0)
     out = "held at every size scanned";
@@ -208,7 +218,8 @@ std::string threshold_text(const std::vector<SizeRun>& runs, double pressure, do
   return out;
 }
 
-std::string respa_size_section(const std::vector<SizeRun>& runs, std::vector<std::string>& lines) {
+std::string respa_size_section(const std::vector<SizeRun>& runs, std::vector<std::string>& lines,
+                               CompareSection& out) {
   if (runs.empty())
     return {};
   std::vector<double> pressures, dts;
@@ -253,7 +264,14 @@ std::string respa_size_section(const std::vector<SizeRun>& runs, std::vector<std
       markdown_table(header, rows) + "\n";
   for (double pr : pressures)
     for (double dt : dts) {
-      const std::string t = threshold_text(runs, pr, dt, sizes.back());
+      const SizeThreshold th = size_threshold(runs, pr, dt);
+      out.values.push_back({"/respa_size_thresholds/P=" + short_num(pr) + "_dt=" + short_num(dt),
+                            {{"imposed_pressure", pr},
+                             {"dt", dt},
+                             {"largest_failing_N", th.largest_failing},
+                             {"smallest_holding_N", th.smallest_holding},
+                             {"every_size_has_a_verdict", std::int64_t{th.complete}}}});
+      const std::string t = threshold_text(th, sizes.back());
       md += "- P = " + short_num(pr) + ", dt = " + short_num(dt) + ": " + t + ".\n";
       lines.push_back("- **RESPA (particles inner) at dt = " + short_num(dt) +
                       ", P = " + short_num(pr) + "**: " + t + ".\n");
@@ -289,7 +307,8 @@ std::string window_table(const CompareCaseOutcome& c) {
 
 }  // namespace
 
-std::string stability_section(const std::vector<CompareCaseOutcome>& cases) {
+CompareSection stability_section(const std::vector<CompareCaseOutcome>& cases) {
+  CompareSection out;
   std::string md =
       "## Summary (explicit Euler)\n\n"
       "Verdicts (the diagnostic window after each run; studies/stability/README.md): **diverged** "
@@ -306,6 +325,13 @@ std::string stability_section(const std::vector<CompareCaseOutcome>& cases) {
     const EulerScan e = euler_scan(c);
     if (!e.scanned)
       continue;
+    out.values.push_back({"/cases/" + name_of(c),
+                          {{"largest_stable_dt", e.largest_stable},
+                           {"largest_dt_without_oscillation", e.largest_held},
+                           {"runs_without_oscillation_left_out", std::int64_t(e.held_left_out)},
+                           {"first_unstable_dt", e.first_unstable},
+                           {"first_unstable_verdict", e.first_unstable_text},
+                           {"lanes", std::int64_t{e.lanes}}}});
     rows.push_back({name_of(c), describe(point_of(*c.plan)), largest_stable_cell(e),
                     std::isfinite(e.first_unstable)
                         ? short_num(e.first_unstable) + ": " + e.first_unstable_text
@@ -332,7 +358,7 @@ std::string stability_section(const std::vector<CompareCaseOutcome>& cases) {
                        rows) +
         "\n";
   std::vector<std::string> respa_lines;
-  md += respa_size_section(size_runs(cases), respa_lines);
+  md += respa_size_section(size_runs(cases), respa_lines, out);
   md += "## Diagnostic windows per case\n\n";
   for (const auto& c : cases)
     md += "### " + name_of(c) + "\n\n" + describe(point_of(*c.plan)) + ".\n\n" + window_table(c) +
@@ -342,10 +368,12 @@ std::string stability_section(const std::vector<CompareCaseOutcome>& cases) {
     md += l;
   for (const auto& l : conclusions)
     md += l;
-  return md +
-         "\nPlots (stability/plot.py, from table.csv): `stability_map.png` (each case's verdict "
-         "against the step or tolerance), `stability_diagnostics.png` (energy balance and force "
-         "step correlation against Euler's step).\n\n";
+  out.markdown = md +
+                 "\nPlots (stability/plot.py, from table.csv): `stability_map.png` (each case's "
+                 "verdict against the step or tolerance), `stability_diagnostics.png` (energy "
+                 "balance and force step correlation against Euler's step). The numbers of this "
+                 "section: `stability.h5`.\n\n";
+  return out;
 }
 
 namespace {

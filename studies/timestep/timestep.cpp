@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <utility>
 
@@ -190,7 +191,8 @@ double first_unstable_euler(const CompareCaseOutcome& c) {
 
 }  // namespace
 
-std::string timestep_section(const std::vector<CompareCaseOutcome>& cases) {
+CompareSection timestep_section(const std::vector<CompareCaseOutcome>& cases) {
+  CompareSection out;
   std::string md = "## Cheapest setting per accuracy target\n\n";
   md +=
       "Per state point, the cheapest setting (CPU seconds per particle·τ0 in brackets) whose "
@@ -205,11 +207,18 @@ std::string timestep_section(const std::vector<CompareCaseOutcome>& cases) {
   for (const auto& c : cases)
     header.push_back(c.plan->label.empty() ? c.plan->name : c.plan->label);
   std::vector<std::vector<std::string>> rows;
-  for (const auto& t : accuracy_targets()) {
-    std::vector<std::string> row = {target_name(t)};
-    for (const auto& c : cases)
-      row.push_back(cheapest(c, t));
+  const auto targets = accuracy_targets();
+  for (std::size_t k = 0; k < targets.size(); ++k) {
+    std::vector<std::string> row = {target_name(targets[k])};
+    Attributes values = {{"observable", targets[k].observable}, {"value", targets[k].value}};
+    for (const auto& c : cases) {
+      row.push_back(cheapest(c, targets[k]));
+      values.emplace_back(c.plan->label.empty() ? c.plan->name : c.plan->label, row.back());
+    }
     rows.push_back(std::move(row));
+    char group[32];
+    std::snprintf(group, sizeof group, "/targets/t%02zu", k);
+    out.values.emplace_back(group, std::move(values));
   }
   md += markdown_table(header, rows) + "\n";
 
@@ -246,11 +255,13 @@ std::string timestep_section(const std::vector<CompareCaseOutcome>& cases) {
   md += "First unstable Euler dt per state point: ";
   for (std::size_t i = 0; i < cases.size(); ++i) {
     const double d = first_unstable_euler(cases[i]);
-    md += (i ? "; " : "") +
-          (cases[i].plan->label.empty() ? cases[i].plan->name : cases[i].plan->label) + ": " +
-          (std::isfinite(d) ? short_num(d) : "none in the scan");
+    const std::string name =
+        cases[i].plan->label.empty() ? cases[i].plan->name : cases[i].plan->label;
+    md += (i ? "; " : "") + name + ": " + (std::isfinite(d) ? short_num(d) : "none in the scan");
+    out.values.push_back({"/cases/" + name, {{"first_unstable_euler_dt", d}}});
   }
-  return md + ".\n\n";
+  out.markdown = md + ".\n\nThe numbers of this section: `timestep.h5` (`/targets`, `/cases`).\n\n";
+  return out;
 }
 
 namespace {

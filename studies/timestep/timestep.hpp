@@ -22,6 +22,8 @@ std::vector<AccuracyTarget> accuracy_targets();
 // target and case the cheapest usable setting (stable, steady and decorrelated by its
 // diagnostic window, error + 2 x error of the difference <= target); the seed's claim on Euler
 // and RESPA (particles x 4) at dt = 0.4 ... 1.5; the first unstable Euler step per case.
-std::string timestep_section(const std::vector<CompareCaseOutcome>& cases);
+// The same numbers go to OUT/timestep.h5: /targets/tNN (observable, value, and per case the
+// cheapest setting's text) and /cases/<case> (first_unstable_euler_dt; NaN: none in the scan).
+CompareSection timestep_section(const std::vector<CompareCaseOutcome>& cases);
 
 }  // namespace jamflow::studies

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <iterator>
 
+#include "lib/h5.hpp"
 #include "studies/stability/stability.hpp"
 #include "tests/driver/temp_dir.hpp"
 #include "tests/studies/jamflow_exe.hpp"
@@ -131,7 +132,7 @@ integrator.dt = 0.2
     o.plan = &one;
     for (auto& r : runs)
       o.runs.push_back({&r});
-    return stability_section({o});
+    return stability_section({o}).markdown;
   };
   using V = studies::Verdict;
   // 0.05 stable, 0.1 correlated (left out), 0.2 oscillating.
@@ -188,6 +189,15 @@ TEST(StabilityStudy, TinyPlanEndToEnd) {
                     "scanned, N = 100."),
             std::string::npos)
       << md;
+  // The section's numbers for programs: OUT/<stem>.h5 (OUT/stability.h5 for the study).
+  H5Reader h5(o.out_dir + "/tiny.h5");
+  EXPECT_DOUBLE_EQ(h5.attr_double("/cases/P=0.1", "largest_stable_dt"), 0.05);
+  EXPECT_DOUBLE_EQ(h5.attr_double("/cases/P=0.1", "first_unstable_dt"), 1.5);
+  EXPECT_EQ(h5.attr_int("/cases/P=0.1", "runs_without_oscillation_left_out"), 0);
+  const std::string t = "/respa_size_thresholds/P=0.001_dt=1";
+  EXPECT_EQ(h5.attr_int(t, "largest_failing_N"), 100);
+  EXPECT_EQ(h5.attr_int(t, "smallest_holding_N"), 0);
+  EXPECT_EQ(h5.attr_int(t, "every_size_has_a_verdict"), 1);
   // The table the plots read has the step and the diagnostic window's class.
   const std::string csv = read_text(std::filesystem::path(o.out_dir) / "table.csv");
   EXPECT_EQ(csv.rfind("case,setting,reference,integrator,dt,rtol,", 0), 0u) << csv.substr(0, 200);

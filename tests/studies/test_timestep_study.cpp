@@ -148,7 +148,7 @@ integrator = { kind = "rkc", atol_overlaps = 0.1 }
   c.result = &res;
   for (auto& r : runs)
     c.runs.push_back({&r});
-  const std::string md = timestep_section({c});
+  const std::string md = timestep_section({c}).markdown;
   auto row = [&](const std::string& start) {
     const auto at = md.find("| " + start);
     return at == std::string::npos ? std::string() : md.substr(at, md.find('\n', at) - at);
@@ -179,7 +179,7 @@ integrator = { kind = "rkc", atol_overlaps = 0.1 }
       << md;
   // No usable reference, no pick.
   runs[0].cls.verdict = studies::Verdict::kNotSteady;
-  const std::string none = timestep_section({c});
+  const std::string none = timestep_section({c}).markdown;
   EXPECT_NE(none.find("no usable reference (not steady)"), std::string::npos) << none;
 }
 
@@ -221,6 +221,13 @@ integrator = { kind = "rkc", atol_overlaps = 0.1 }
     const double e = r.attr_double(g, "difference_err") / std::abs(s_ref);
     EXPECT_GT(e, 0.0) << s;
     EXPECT_LT(d, 0.05 + 4.0 * e) << s;
+  }
+  // The section's numbers for programs: OUT/<stem>.h5 (OUT/timestep.h5 for the study).
+  {
+    H5Reader t(o.out_dir + "/tiny.h5");
+    EXPECT_DOUBLE_EQ(t.attr_double("/cases/tiny", "first_unstable_euler_dt"), 1.5);
+    EXPECT_EQ(t.attr_string("/targets/t00", "observable"), "sigma_xy");
+    EXPECT_EQ(t.attr_string("/targets/t00", "tiny").find("euler-1.5"), std::string::npos);
   }
   // The converged settings (the reference and dt = 0.05) entered the error model.
   EXPECT_EQ(r.attr_int("/observables/sigma_xy", "converged_settings"), 2);
