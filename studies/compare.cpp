@@ -373,12 +373,13 @@ std::string converged_text(const ComparePlan& plan, const analysis::CompareResul
   for (std::size_t o = 0; o < plan.observables.size() && o < res.converged_scatter.size(); ++o) {
     const auto& c = res.converged_scatter[o];
     md += std::string(o ? "; " : "") + plan.observables[o] + " ";
-    md += c.settings < 2 ? "fewer than 2 settings, errors kept"
-          : c.error_scale > 1.0
-              ? "chi2/dof = " + num(c.reduced_chi2, 3) + " over " + std::to_string(c.settings) +
-                    ", every error multiplied by " + num(c.error_scale, 3)
-              : "chi2/dof = " + num(c.reduced_chi2, 3) + " over " + std::to_string(c.settings) +
-                    ", errors kept";
+    if (c.settings < 2) {
+      md += "fewer than 2 settings, errors kept";
+      continue;
+    }
+    md += "chi2/dof = " + num(c.reduced_chi2, 3) + " over " + std::to_string(c.settings) +
+          (c.error_scale > 1.0 ? ", every error multiplied by " + num(c.error_scale, 3)
+                               : std::string(", errors kept"));
   }
   return md +
          " (the errors of single runs understate the run-to-run scatter where chi2/dof > 1; "

@@ -117,6 +117,8 @@ struct CompareCaseOutcome {
   const ComparePlan* plan = nullptr;
   const analysis::CompareResult* result = nullptr;
   std::vector<std::vector<const DiagnosedRun*>> runs;  // [setting][replica]
+  // How the tables name the case: its label, or the comparison's name without cases.
+  const std::string& name() const { return plan->label.empty() ? plan->name : plan->label; }
 };
 
 // What a study's own section adds to a comparison's report: markdown and, for programs, its

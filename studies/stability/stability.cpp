@@ -23,10 +23,6 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string name_of(const CompareCaseOutcome& c) {
-  return c.plan->label.empty() ? c.plan->name : c.plan->label;
-}
-
 // The state point of a case, from its base scene.
 struct Point {
   std::int64_t n = 0;
@@ -325,19 +321,19 @@ CompareSection stability_section(const std::vector<CompareCaseOutcome>& cases) {
     const EulerScan e = euler_scan(c);
     if (!e.scanned)
       continue;
-    out.values.push_back({"/cases/" + name_of(c),
+    out.values.push_back({"/cases/" + c.name(),
                           {{"largest_stable_dt", e.largest_stable},
                            {"largest_dt_without_oscillation", e.largest_held},
                            {"runs_without_oscillation_left_out", std::int64_t(e.held_left_out)},
                            {"first_unstable_dt", e.first_unstable},
                            {"first_unstable_verdict", e.first_unstable_text},
                            {"lanes", std::int64_t{e.lanes}}}});
-    rows.push_back({name_of(c), describe(point_of(*c.plan)), largest_stable_cell(e),
+    rows.push_back({c.name(), describe(point_of(*c.plan)), largest_stable_cell(e),
                     std::isfinite(e.first_unstable)
                         ? short_num(e.first_unstable) + ": " + e.first_unstable_text
                         : "none in the scan",
                     e.lanes ? "yes" : "no"});
-    std::string line = "- **" + name_of(c) + "**: ";
+    std::string line = "- **" + c.name() + "**: ";
     if (std::isfinite(e.largest_stable))
       line += "Euler stable up to dt = " + short_num(e.largest_stable);
     else if (std::isfinite(e.largest_held))
@@ -361,8 +357,8 @@ CompareSection stability_section(const std::vector<CompareCaseOutcome>& cases) {
   md += respa_size_section(size_runs(cases), respa_lines, out);
   md += "## Diagnostic windows per case\n\n";
   for (const auto& c : cases)
-    md += "### " + name_of(c) + "\n\n" + describe(point_of(*c.plan)) + ".\n\n" + window_table(c) +
-          "\n";
+    md +=
+        "### " + c.name() + "\n\n" + describe(point_of(*c.plan)) + ".\n\n" + window_table(c) + "\n";
   md += "## Conclusions\n\n";
   for (const auto& l : respa_lines)
     md += l;

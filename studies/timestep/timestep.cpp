@@ -205,7 +205,7 @@ CompareSection timestep_section(const std::vector<CompareCaseOutcome>& cases) {
       "report says; these targets do not.)\n\n";
   std::vector<std::string> header = {"target"};
   for (const auto& c : cases)
-    header.push_back(c.plan->label.empty() ? c.plan->name : c.plan->label);
+    header.push_back(c.name());
   std::vector<std::vector<std::string>> rows;
   const auto targets = accuracy_targets();
   for (std::size_t k = 0; k < targets.size(); ++k) {
@@ -213,7 +213,7 @@ CompareSection timestep_section(const std::vector<CompareCaseOutcome>& cases) {
     Attributes values = {{"observable", targets[k].observable}, {"value", targets[k].value}};
     for (const auto& c : cases) {
       row.push_back(cheapest(c, targets[k]));
-      values.emplace_back(c.plan->label.empty() ? c.plan->name : c.plan->label, row.back());
+      values.emplace_back(c.name(), row.back());
     }
     rows.push_back(std::move(row));
     char group[32];
@@ -235,7 +235,7 @@ CompareSection timestep_section(const std::vector<CompareCaseOutcome>& cases) {
   rows.clear();
   for (const auto& c : cases) {
     for (const std::string family : {"euler", "respa particlesx4"}) {
-      std::vector<std::string> row = {c.plan->label.empty() ? c.plan->name : c.plan->label, family};
+      std::vector<std::string> row = {c.name(), family};
       bool any = false;
       for (double dt : claim_dts) {
         int found = -1;
@@ -255,8 +255,7 @@ CompareSection timestep_section(const std::vector<CompareCaseOutcome>& cases) {
   md += "First unstable Euler dt per state point: ";
   for (std::size_t i = 0; i < cases.size(); ++i) {
     const double d = first_unstable_euler(cases[i]);
-    const std::string name =
-        cases[i].plan->label.empty() ? cases[i].plan->name : cases[i].plan->label;
+    const std::string name = cases[i].name();
     md += (i ? "; " : "") + name + ": " + (std::isfinite(d) ? short_num(d) : "none in the scan");
     out.values.push_back({"/cases/" + name, {{"first_unstable_euler_dt", d}}});
   }
