@@ -65,19 +65,35 @@ std::string headline(const fs::path& report) {
   return first == std::string::npos ? std::string() : out.substr(first);
 }
 
-// A study's figures (its folder's PNG files, and those of each case of a comparison plan with
-// cases: CASE/compare.h5 beside them), as images linked relative to the paper report.
+// Markdown links and images of a study's report, relative to its folder, made relative to the
+// paper report's: "](x/report.md)" becomes "](STUDY/x/report.md)". Addresses with a scheme, an
+// absolute path or an anchor are left as they are.
+std::string rebase_links(const std::string& md, const std::string& study) {
+  std::string out;
+  std::size_t at = 0;
+  for (std::size_t hit = md.find("](", at); hit != std::string::npos; hit = md.find("](", at)) {
+    out += md.substr(at, hit + 2 - at);
+    at = hit + 2;
+    const std::size_t end = md.find_first_of(") ", at);
+    const std::string target = md.substr(at, end == std::string::npos ? end : end - at);
+    const bool relative = !target.empty() && target[0] != '/' && target[0] != '#' &&
+                          target.find("://") == std::string::npos &&
+                          target.rfind("mailto:", 0) != 0;
+    if (relative)
+      out += study + "/";
+  }
+  return out + md.substr(at);
+}
+
+// A study's figures (its folder's PNG files), as images linked relative to the paper report. The
+// cases of a comparison plan keep theirs in their folders, reached through the links of the
+// study's table of cases.
 std::string figures(const fs::path& dir) {
   std::vector<std::string> names;
   std::error_code ec;
-  for (const auto& e : fs::directory_iterator(dir, ec)) {
+  for (const auto& e : fs::directory_iterator(dir, ec))
     if (e.is_regular_file() && e.path().extension() == ".png")
       names.push_back(e.path().filename().string());
-    if (e.is_directory() && fs::exists(e.path() / "compare.h5"))
-      for (const auto& f : fs::directory_iterator(e.path(), ec))
-        if (f.is_regular_file() && f.path().extension() == ".png")
-          names.push_back((e.path().filename() / f.path().filename()).string());
-  }
   std::sort(names.begin(), names.end());
   std::string md;
   for (const auto& n : names)
@@ -174,7 +190,9 @@ std::vector<std::string> report_only_row(const StudyInfo& info, const Part& part
   const double hours = tables_hours(ptrs, &rows, &from_wall);
   const fs::path report = dir / "report.md";
   if (fs::exists(report))
-    headlines << "\n### " << part.study << "\n\n" << headline(report) << "\n" << figures(dir);
+    headlines << "\n### " << part.study << "\n\n"
+              << rebase_links(headline(report), part.study) << "\n"
+              << figures(dir);
   return {part.seed,
           part.study,
           status,
@@ -288,7 +306,9 @@ int run(const StudyOptions& options) {
                                              std::string(part.study) + "/report.md)"
                                        : "-"});
     if (fs::exists(report))
-      headlines << "\n### " << part.study << "\n\n" << headline(report) << "\n" << figures(dir);
+      headlines << "\n### " << part.study << "\n\n"
+                << rebase_links(headline(report), part.study) << "\n"
+                << figures(dir);
   }
   if (options.dry_run) {
     std::printf(

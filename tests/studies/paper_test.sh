@@ -7,7 +7,8 @@
 #    exit 2, before anything runs.
 #  - end to end on three quick studies, two of which share points and one in stages: each shared
 #    point runs once, the report has a row per study with its CPU hours, Table 2's section and
-#    each study's figures, and a --dry-run after it finds every run finished and nothing left.
+#    each study's figures, every link resolves, and a --dry-run after it finds every run finished
+#    and nothing left.
 # usage: paper_test.sh JAMFLOW_BINARY
 set -uo pipefail
 jamflow="$(realpath "$1")"
@@ -68,10 +69,28 @@ missing=0
 for f in $figs; do [ -s "e2e/$f" ] || missing=$((missing + 1)); done
 [ -n "$figs" ] && [ "$missing" -eq 0 ] && ok "the report shows $(echo "$figs" | wc -l) figures, all present" ||
   bad "report figures: '$figs', $missing missing"
+# Every link of the report resolves from its folder, those of the studies' openings (a
+# comparison plan's table of cases links each case's report) included.
+links=$(grep -o '](\([^)#:]*\))' e2e/report.md | sed 's/^](//; s/)$//' | sort -u)
+broken=""
+for f in $links; do [ -e "e2e/$f" ] || broken="$broken $f"; done
+[ -n "$links" ] && [ -z "$broken" ] && ok "the report's $(echo "$links" | wc -l) links resolve" ||
+  bad "report links that do not resolve:$broken"
 line=$("$jamflow" study paper --preset quick --only "$studies" --dry-run --out e2e)
 runs=$(echo "$line" | sed -n 's/.*: \([0-9]*\) distinct runs.*/\1/p')
 echo "$line" | grep -q "; $runs finished, about 0 CPU-hours left" &&
   ok "dry-run after the run: $runs finished, nothing left" || bad "dry-run after the run: $line"
+
+# --report-only on a comparison plan with cases: the links of its opening (its table of cases)
+# are relative to its folder, and the combined report rebases them onto the study's folder.
+mkdir -p rp/timestep/case-a
+printf '# timestep\n\n| case |\n|---|\n| [case-a](case-a/report.md) |\n\n## More\n' \
+  > rp/timestep/report.md
+echo "# case-a" > rp/timestep/case-a/report.md
+"$jamflow" study paper --preset quick --report-only --only timestep --out rp > rp.out 2>&1
+grep -q '](timestep/case-a/report.md)' rp/report.md && [ -s rp/timestep/case-a/report.md ] &&
+  ok "--report-only: a case's link in a study's opening resolves from the combined report" ||
+  bad "--report-only case link: $(grep -n 'case-a' rp/report.md)"
 
 "$jamflow" study paper --preset paper --slurm --out sl -j 8 > slurm.out 2> slurm.err
 status=$?
