@@ -789,7 +789,11 @@ void write_cases_summary(const ComparePlan& top, const std::vector<CaseRuns>& ca
 }  // namespace
 
 int run_compare(const ComparePlan& top, const StudyOptions& options,
-                const CompareReportSection& section, const std::vector<std::string>& plot_scripts) {
+                const CompareReportSection& section, const std::vector<std::string>& plot_scripts,
+                const CompareFollowUp& follow_up) {
+  if (!top.study_keys.empty() && !follow_up && !section)
+    throw ConfigError(top.path + ": [study] " + std::string(top.study_keys.begin()->first.str()) +
+                      "; allowed only in a study's own plan (studies/<study>/<preset>.toml)");
   ensure_dir(options.out_dir);
   const std::string study = top.study.empty() ? "compare" : top.study;
   std::vector<CaseRuns> cases;
@@ -882,6 +886,7 @@ int run_compare(const ComparePlan& top, const StudyOptions& options,
           r.seed = plan.seed + k;
           r.init = init;
           r.window = plan.diagnose;
+          r.window_options = plan.window_options(s, pooled(source, "pressure"));
           const toml::table* run = scene.table("run");
           const toml::node* budget = run ? run->get("max_force_evaluations") : nullptr;
           r.budget = budget && budget->is_integer() ? budget->as_integer()->get() : 0;
@@ -897,21 +902,29 @@ int run_compare(const ComparePlan& top, const StudyOptions& options,
                                " finished, so no setting can start; see the logs under " +
                                options.out_dir + (stage == 0 ? "/prepare" : "/settings") +
                                "/runs/points/");
-    if (const auto status = run_stage(study, stage == 0 ? "settings" : "continued", requests,
-                                      options, done[stage], stage == 1 || !continued))
+    if (const auto status =
+            run_stage(study, stage == 0 ? "settings" : "continued", requests, options, done[stage],
+                      (stage == 1 || !continued) && !follow_up))
       return *status;
   }
-  // Counted or written as a job array, not run: nothing to report yet.
-  if (options.dry_run || options.slurm)
+  // Counted or written as a job array, not run: nothing to report yet. A follow-up counts its
+  // own stages from stand-ins.
+  if (options.dry_run && follow_up) {
+    const auto counted = follow_up({});
+    return std::holds_alternative<int>(counted) ? std::get<int>(counted) : 0;
+  }
+  // Under --slurm with a follow-up, the comparison's stages are done: the follow-up writes the
+  // array of its own stage, or the report follows once that is done too.
+  if ((options.dry_run || options.slurm) && !follow_up)
     return 0;
-  if (sweep::mpi_launched() && sweep::launched_rank() != 0)
+  if (sweep::mpi_launched() && sweep::launched_rank() != 0 && !follow_up)
     return 0;
 
   std::vector<CaseAnalysis> analyses;
   for (const CaseRuns& c : cases)
     analyses.push_back(analyse_case(c, done));
   CompareSection own;  // the study's section, from every case's outcome
-  if (section) {
+  if (section || follow_up) {
     std::vector<CompareCaseOutcome> outcomes;
     for (std::size_t i = 0; i < cases.size(); ++i) {
       CompareCaseOutcome o;
@@ -924,8 +937,17 @@ int run_compare(const ComparePlan& top, const StudyOptions& options,
       }
       outcomes.push_back(std::move(o));
     }
-    own = section(outcomes);
+    if (follow_up) {
+      auto followed = follow_up(outcomes);
+      if (std::holds_alternative<int>(followed))
+        return std::get<int>(followed);
+      own = std::move(std::get<CompareSection>(followed));
+    } else {
+      own = section(outcomes);
+    }
   }
+  if (sweep::mpi_launched() && sweep::launched_rank() != 0)
+    return 0;
   for (std::size_t i = 0; i < cases.size(); ++i)
     write_case(cases[i], analyses[i], options, top.cases.empty() ? own.markdown : "");
   if (!top.cases.empty())

@@ -15,6 +15,7 @@
 #include <limits>
 #include <optional>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "analysis/compare.hpp"
@@ -73,6 +74,16 @@ struct ComparePlan {
   // (studies/diagnostics.hpp: 256 steps sampled at every step), which classifies it as stable,
   // oscillating or diverged and flags lanes; oscillating or diverged makes a setting unstable.
   bool diagnose = false;
+  // window_step: the diagnostic window's sampling interval for adaptive integrators (CVODE,
+  // RKC), whose step-correlation test measures how smooth the forces are over that interval.
+  // 0 (unset): the run's sample_every / 16; window_step = "contact" (window_step_contact): a
+  // tenth of the contact relaxation time, 0.1 / max(1, k) with k = (alpha_r - 1)
+  // delta^(alpha_r - 2) the contact stiffness at the typical overlap delta (as atol_overlaps).
+  double window_step = 0.0;
+  bool window_step_contact = false;
+  // [study]: keys that the study whose preset this is reads itself (the engine only keeps them);
+  // a compare file run by `jamflow compare` may not have it.
+  toml::table study_keys;
 
   // [[case]]: the same comparison at several state points. Each case is a plan of its own (the
   // base scene, [run] lengths and [prepare] t overridden by the case, `settings` a subset of the
@@ -89,6 +100,10 @@ struct ComparePlan {
   Scene setting_scene(std::size_t s,
                       double measured_pressure = std::numeric_limits<double>::quiet_NaN()) const;
   Scene prepare_scene(std::int64_t n) const;
+  // The diagnostic window of a setting's runs (window_step), at the same state point as
+  // setting_scene(s, measured_pressure).
+  WindowOptions window_options(
+      std::size_t s, double measured_pressure = std::numeric_limits<double>::quiet_NaN()) const;
   // The distinct N of the settings, in order of first appearance.
   std::vector<std::int64_t> sizes() const;
 };
@@ -137,14 +152,25 @@ struct CompareSection {
 // cases, at the end of OUT/report.md, after the table of cases.
 using CompareReportSection = std::function<CompareSection(const std::vector<CompareCaseOutcome>&)>;
 
+// A study that runs stages of its own after the comparison (studies/softness: pressure scans with
+// each case's chosen integrator). It is called with every case's outcome once the comparison's
+// stages are done and analysed, and under --dry-run (with no outcomes: nothing has run) so that
+// its stages are counted too. It runs its stages (run_stage) and returns its section, or the
+// status to stop with when a stage did not finish (--dry-run, --slurm, a signal, an MPI rank
+// other than 0): then no report is written.
+using CompareFollowUp =
+    std::function<std::variant<int, CompareSection>(const std::vector<CompareCaseOutcome>&)>;
+
 // Runs (or resumes, dry-runs, writes the Slurm array of) the comparison into options.out_dir
-// and writes the report; returns the exit status. `plot_scripts`: a study's own plots (paths
-// under the studies' folder, e.g. "stability/plot.py"), each run as `SCRIPT OUT/table.csv OUT`
-// after the report (OUT/table.csv has every case's rows, with a `case` column when there are
-// cases, and the integrator's dt and rtol and the diagnostic window's classes).
+// and writes the report; returns the exit status. `follow_up` takes the place of `section`.
+// `plot_scripts`: a study's own plots (paths under the studies' folder, e.g. "stability/plot.py"),
+// each run as `SCRIPT OUT/table.csv OUT` after the report (OUT/table.csv has every case's rows,
+// with a `case` column when there are cases, and the integrator's dt and rtol and the diagnostic
+// window's classes).
 int run_compare(const ComparePlan& plan, const StudyOptions& options,
                 const CompareReportSection& section = {},
-                const std::vector<std::string>& plot_scripts = {});
+                const std::vector<std::string>& plot_scripts = {},
+                const CompareFollowUp& follow_up = {});
 
 // The compare file of a study's preset, shipped in the study's folder as <preset>.toml (installed
 // with the plot scripts); a preset without one is a ConfigError naming the allowed presets.

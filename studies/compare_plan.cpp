@@ -178,6 +178,21 @@ Scene ComparePlan::setting_scene(std::size_t s, double measured_pressure) const 
   return scene;
 }
 
+WindowOptions ComparePlan::window_options(std::size_t s, double measured_pressure) const {
+  WindowOptions w;
+  w.adaptive_step = window_step;
+  if (window_step_contact) {
+    const Scene scene = setting_scene(s, measured_pressure);
+    const toml::table* sys = scene.table("system");
+    const toml::node* a = sys ? sys->get("alpha") : nullptr;
+    const double alpha = a && a->is_number() ? a->value<double>().value_or(2.0) : 2.0;
+    const double k =
+        (alpha - 1.0) * std::pow(typical_overlap(scene, measured_pressure), alpha - 2.0);
+    w.adaptive_step = 0.1 / std::max(k, 1.0);
+  }
+  return w;
+}
+
 Scene ComparePlan::prepare_scene(std::int64_t n) const {
   Scene scene = base;
   apply_overrides(scene, prepare_overrides);
@@ -251,7 +266,8 @@ ComparePlan parse_compare(const std::string& text, const std::string& source,
         "base",        "prepare",         "run",
         "setting",     "reference",       "replicas",
         "observables", "tolerance_sigma", "relative_tolerance",
-        "case",        "diagnose"};
+        "case",        "diagnose",        "window_step",
+        "study"};
     if (std::find(kKeys.begin(), kKeys.end(), key) == kKeys.end())
       throw ConfigError(source + ": unknown key " + key + " = " + show(v) + "; allowed " +
                         join(kKeys));
@@ -290,6 +306,22 @@ ComparePlan parse_compare(const std::string& text, const std::string& source,
     if (!d->is_boolean())
       throw ConfigError(where + "diagnose = " + show(*d) + "; allowed true or false");
     plan.diagnose = d->as_boolean()->get();
+  }
+  if (const toml::node* w = top.get("window_step")) {
+    const auto rule = w->value<std::string>();
+    const double step = w->is_number() ? w->value<double>().value_or(0.0) : 0.0;
+    if (rule && *rule == "contact")
+      plan.window_step_contact = true;
+    else if (w->is_number() && step > 0.0 && std::isfinite(step))
+      plan.window_step = step;
+    else
+      throw ConfigError(where + "window_step = " + show(*w) +
+                        "; allowed a number > 0 or \"contact\"");
+  }
+  if (const toml::node* st = top.get("study")) {
+    if (!st->is_table())
+      throw ConfigError(where + "study = " + show(*st) + "; allowed a [study] table");
+    plan.study_keys = *st->as_table();
   }
   const std::vector<std::string>& allowed_obs = compare_observables();
   if (const toml::node* obs = top.get("observables")) {

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "lib/error.hpp"
 #include "studies/compare.hpp"
 #include "tests/driver/temp_dir.hpp"
 #include "tests/studies/jamflow_exe.hpp"
@@ -152,6 +153,89 @@ TEST(CompareSection, WithoutCasesGoesIntoTheReportBeforeTheRecommendation) {
   ASSERT_NE(at, std::string::npos);
   EXPECT_LT(at, report.find("## Recommendation"));
   EXPECT_NE(report.find("- case '', coarse: 2 runs, unstable", at), std::string::npos) << report;
+}
+
+// A follow-up (studies/softness) runs a stage of its own after the comparison: --dry-run calls
+// it with no outcomes (it counts its stage), a status it returns stops the study without a
+// report, and otherwise its section goes into the report like a section's.
+TEST(CompareFollowUp, RunsAfterTheAnalysisAndCanStopBeforeTheReport) {
+  use_test_jamflow();
+  const testing_support::TempDir dir("jamflow-compare-follow-up-");
+  const ComparePlan plan =
+      parse_compare(compare_text("[study]\nanswer = 42\n"), "f.toml", dir.path());
+  ASSERT_EQ(plan.study_keys.size(), 1u);
+  EXPECT_EQ(plan.study_keys["answer"].value<int>(), 42);
+  StudyOptions o;
+  o.out_dir = (fs::path(dir.path()) / "out").string();
+  o.quiet = true;
+  o.no_plots = true;
+  o.jobs = 2;
+  // A compare file of `jamflow compare` (no study reads it) may not have [study].
+  EXPECT_THROW(run_compare(plan, o), ConfigError);
+
+  std::vector<std::size_t> seen_cases;
+  int answer = 0;
+  const CompareFollowUp stop =
+      [&](const std::vector<CompareCaseOutcome>& cases) -> std::variant<int, CompareSection> {
+    seen_cases.push_back(cases.size());
+    return answer;
+  };
+  StudyOptions dry = o;
+  dry.dry_run = true;
+  answer = 3;
+  EXPECT_EQ(run_compare(plan, dry, {}, {}, stop), 3);
+  ASSERT_EQ(seen_cases, (std::vector<std::size_t>{0}));  // nothing has run: no outcomes
+  answer = 5;  // a stage of its own not finished: no report
+  EXPECT_EQ(run_compare(plan, o, {}, {}, stop), 5);
+  ASSERT_EQ(seen_cases, (std::vector<std::size_t>{0, 1}));
+  EXPECT_FALSE(fs::exists(fs::path(o.out_dir) / "report.md"));
+
+  Seen seen;
+  const CompareReportSection section = recording(seen);
+  const CompareFollowUp done =
+      [&](const std::vector<CompareCaseOutcome>& cases) -> std::variant<int, CompareSection> {
+    return section(cases);
+  };
+  ASSERT_EQ(run_compare(plan, o, {}, {}, done), 0);
+  EXPECT_EQ(seen.calls, 1);
+  const std::string report = read_text(fs::path(o.out_dir) / "report.md");
+  EXPECT_LT(report.find("## The test study's section"), report.find("## Recommendation"));
+}
+
+// window_step: the diagnostic window's sampling interval of adaptive integrators, fixed or a
+// tenth of the contact relaxation time at the case's typical overlap.
+TEST(CompareWindowStep, FixedOrFromTheContactStiffness) {
+  const testing_support::TempDir dir("jamflow-compare-window-");
+  const std::string cases = R"([[case]]
+label = "soft"
+system = { alpha = 1.5 }
+ensemble = { kind = "constant_pressure", pressure = 0.1 }
+[[case]]
+label = "harmonic"
+ensemble = { kind = "constant_pressure", pressure = 0.01 }
+)";
+  const ComparePlan unset = parse_compare(compare_text(cases), "w.toml", dir.path());
+  EXPECT_EQ(unset.cases[0].window_options(0).adaptive_step, 0.0);  // sample_every / 16
+  const ComparePlan fixed =
+      parse_compare("window_step = 0.25\n" + compare_text(cases), "w.toml", dir.path());
+  EXPECT_EQ(fixed.cases[1].window_options(1).adaptive_step, 0.25);
+  const ComparePlan contact =
+      parse_compare("window_step = \"contact\"\n" + compare_text(cases), "w.toml", dir.path());
+  // alpha_r = 1.5 at P = 0.1: delta = P^2 = 0.01, k = 0.5 delta^-0.5 = 5, so 0.1 / 5.
+  EXPECT_NEAR(contact.cases[0].window_options(0).adaptive_step, 0.02, 1e-12);
+  // Harmonic contacts: k = 1 at every overlap, so 0.1.
+  EXPECT_NEAR(contact.cases[1].window_options(0).adaptive_step, 0.1, 1e-12);
+  for (const char* bad : {"window_step = 0.0\n", "window_step = \"soft\"\n"}) {
+    try {
+      (void)parse_compare(bad + compare_text(cases), "w.toml", dir.path());
+      ADD_FAILURE() << bad;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("window_step"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("allowed a number > 0 or \"contact\""),
+                std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 }  // namespace
