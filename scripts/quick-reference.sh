@@ -32,10 +32,9 @@ for study in hard-sphere finite-size soft-rheology olsson-teitel; do
     /usr/bin/python3 "$root/tests/studies/quick_numbers.py" --store "$work/$study/$f" "$ref/$f"
   done
 done
-# The studies in stages: their HDF5 file, as a digest of its numbers (quick_numbers.py); a study
-# that is a comparison plan writes compare.h5, one per case (CASE/compare.h5) for a plan with
-# cases, and its section's numbers in STUDY.h5.
-declare -A h5=([softness]=softness.h5)
+# The studies in stages, each a comparison plan: their HDF5 files, as digests of their numbers
+# (quick_numbers.py): compare.h5, one per case (CASE/compare.h5) for a plan with cases, and the
+# study's own numbers in STUDY.h5.
 for study in timestep stability softness ensemble; do
   want "$study" || continue
   echo "quick-reference: $study"
@@ -43,11 +42,7 @@ for study in timestep stability softness ensemble; do
     > "$work/$study.log" 2>&1 || { echo "quick-reference: $study failed" >&2; exit 1; }
   ref="$root/tests/studies/data/quick/$study"
   rm -rf "$ref"
-  if [ -n "${h5[$study]:-}" ]; then
-    outs="${h5[$study]}"
-  else
-    outs=$(cd "$work/$study" && find . \( -name compare.h5 -o -name "$study.h5" \) -not -path "*/runs/*" | sed 's|^\./||' | sort)
-  fi
+  outs=$(cd "$work/$study" && find . \( -name compare.h5 -o -name "$study.h5" \) -not -path "*/runs/*" | sed 's|^\./||' | sort)
   for f in $outs; do
     mkdir -p "$(dirname "$ref/$f")"
     /usr/bin/python3 "$root/tests/studies/quick_numbers.py" --digest "$work/$study/$f" \

@@ -1,12 +1,14 @@
-"""Softness (alpha_r) study plots from softness.h5 (studies/softness).
+"""Softness (alpha_r) study plots from OUT_DIR/softness.h5 (studies/softness).
 
-usage: plot.py softness.h5 OUT_DIR
+usage: plot.py OUT_DIR/table.csv OUT_DIR   (the comparison's plot-script arguments; the study's
+conclusions are in softness.h5 beside the table)
 softness_dt.png: measured cost per tau_0 per particle of every stable and accurate integrator
 setting against alpha_r (the chosen one marked), and Euler's largest step;
 softness_pscan.png: mu and phi against P per alpha_r and J, the common P -> 0 reference as a
 band, P* marked; softness_cost.png: CPU seconds (N of the preset, and N = 1000) and particle
 force evaluations per particle to reach strain 1 at P* against alpha_r.
 """
+import os
 import sys
 
 import h5py
@@ -22,7 +24,8 @@ def text(v):
 
 
 def main():
-    path, out = sys.argv[1], sys.argv[2]
+    out = sys.argv[2]
+    path = os.path.join(os.path.dirname(os.path.abspath(sys.argv[1])), "softness.h5")
     alphas = []
     refs = {}
     with h5py.File(path, "r") as f:
@@ -39,7 +42,7 @@ def main():
                  "integrator": text(g.attrs["integrator"]),
                  "verified": int(g.attrs["integrator_verified"]), "cands": [], "pscan": {}}
             if "candidates" in g:
-                for ck in g["candidates"].keys():
+                for ck in sorted(g["candidates"].keys(), key=lambda k: int(k[1:])):
                     ca = g["candidates"][ck].attrs
                     a["cands"].append({"label": text(ca["setting"]), "ok": int(ca["ok"]),
                                        "cost": float(ca["seconds_per_tau_particle"]),
@@ -65,12 +68,12 @@ def main():
     al = np.array([a["alpha"] for a in alphas])
 
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 4.5))
-    markers = {"euler": "o", "respa": "s", "cvode": "^"}
+    markers = {"euler": "o", "respa": "s", "cvode": "^", "rkc": "D"}
     for a in alphas:
         for c in a["cands"]:
             if not c["ok"] or not np.isfinite(c["cost"]):
                 continue
-            fam = c["label"].split()[0]
+            fam = c["label"].split("-")[0]
             a1.plot(a["alpha"], 1e6 * c["cost"], markers.get(fam, "x"),
                     color="C3" if c["chosen"] else "grey", mfc="none" if not c["chosen"] else None)
     for fam, m in markers.items():

@@ -182,9 +182,8 @@ for preset in quick standard paper; do
     bad "dry-run $preset created point folders"
 done
 
-# The studies in stages (timestep, stability, softness: a preparation first; ensemble, a
-# comparison plan: relaxed starts, constant pressure, then constant volume from its final
-# states) on the sweep engine too: --dry-run
+# The studies in stages, each a comparison plan (a preparation first; softness then its pressure
+# scans; ensemble constant pressure, then constant volume from its final states) on the sweep engine too: --dry-run
 # counts every stage (the later ones with stand-in start states) and runs nothing; --slurm writes that stage's job array (not
 # submitted) and says to rerun the command for the next. Their quick presets run end to end in
 # test_studies (each run a `jamflow run` process; a rerun computes nothing).
@@ -201,10 +200,7 @@ if [ "$short" = 0 ]; then
 fi
 
 for study in timestep stability softness ensemble; do
-  case "$study" in
-    ensemble | timestep | stability) stage=prepare ;;
-    *) stage=prep ;;
-  esac
+  stage=prepare  # each is a comparison plan: its preparations first
   line=$("$jamflow" study "$study" --preset quick --dry-run --out "$work/dry-$study" 2>&1)
   status=$?
   [ "$status" -eq 0 ] && echo "$line" | grep -q "stage $stage.*points x .* CPU-hours.*next stage" &&
