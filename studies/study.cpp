@@ -38,7 +38,8 @@ int study_main(const std::vector<std::string>& args) {
   app.add_option("name", name, "study to run: " + (names.empty() ? "(none built)" : names))
       ->required();
   app.add_option("--preset", opt.preset,
-                 "required: quick (CI, minutes), standard (~1 h), paper (cluster)")
+                 "required: quick (CI, minutes), standard (hours on 2 cores; its results are "
+                 "committed), paper (cluster)")
       ->check(CLI::IsMember({"quick", "standard", "paper"}));
   app.add_option("--out", opt.out_dir, "output folder (default out/<study>-<preset>)")
       ->check(non_empty_path());
