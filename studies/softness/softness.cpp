@@ -520,7 +520,9 @@ CompareSection softness_section(const SoftnessParameters& p,
       "blocks are shorter than 2 τ are admitted: the test is paired, so a drift common to both "
       "runs cancels. The integrator is the cheapest setting stable and accurate at both ends, "
       "in measured CPU seconds per τ0 per particle, the two ends' costs interpolated in log P "
-      "and weighted by the pressure scan's run lengths.\n\n"
+      "and weighted by the pressure scan's run lengths. (The table of cases above gives each "
+      "case's own recommendation, the comparison engine's: steady runs only, within 2 paired "
+      "errors. The study's choice is this one.)\n\n"
       "**Common P → 0 reference.** The hard-sphere limit φ(J), μ(J) does not depend on α_r: "
       "one reference per J, α_r = 2 at P = " +
       short_num(p.p_reference) + ", CVODE rtol " + short_num(p.reference_rtol) + ", " +
@@ -787,6 +789,9 @@ CompareSection softness_section(const SoftnessParameters& p,
     md += "\n";
   }
   md +=
+      "- Each pressure-scan point is one run: P*, and \"never reached\", rest on single runs "
+      "compared with the reference at 2 combined standard errors, and a run's block errors "
+      "understate its scatter when its blocks are short.\n"
       "- The seed's optimum is α_r ∈ [1.75, 2.0]. Ours is the cheapest α_r above, within the "
       "resolution of the δ grid and of the integrator scans; CPU seconds are measured on "
       "shared cores and carry their noise.\n\nPlots: `softness_dt.png`, `softness_pscan.png`, "
