@@ -21,7 +21,6 @@
 #include "driver/checkpoint.hpp"
 #include "driver/simulation.hpp"
 #include "lib/error.hpp"
-#include "lib/h5.hpp"
 #include "studies/common.hpp"
 #include "studies/sweep_study.hpp"
 #include "sweep/execute.hpp"
@@ -531,12 +530,6 @@ std::string excluded_section(const std::vector<const DiagnosedRun*>& runs) {
   return md + "\n";
 }
 
-std::int64_t budget_for(double particle_steps, std::int64_t n) {
-  if (!(particle_steps > 0.0) || n <= 0)
-    return 0;
-  return std::max<std::int64_t>(1, std::llround(particle_steps / double(n)));
-}
-
 DiagnosedRun diagnose_file(const std::string& label, const RunSpec& spec, const std::string& file,
                            const RunRequest& request, const Thresholds& thresholds) {
   DiagnosedRun d;
@@ -670,73 +663,6 @@ std::optional<int> run_stage(const std::string& study, const std::string& stage,
 }
 
 // ---- Output ---------------------------------------------------------------------------------
-
-void write_diagnosed(H5Writer& out, const std::string& group, const DiagnosedRun& r,
-                     bool with_series) {
-  out.group(group);
-  out.attr(group, "label", r.label);
-  out.attr(group, "verdict", verdict_name(r.cls.verdict));
-  out.attr(group, "verdict_text", r.verdict_text());
-  out.attr(group, "reason", r.cls.reason);
-  out.attr(group, "laned", static_cast<std::int64_t>(r.cls.laned));
-  out.attr(group, "correlated", static_cast<std::int64_t>(r.cls.correlated));
-  out.attr(group, "status", r.result.status.text());
-  out.attr(group, "scene", r.scene_text);
-  out.attr(group, "dt", r.dt);
-  out.attr(group, "N", r.n);
-  out.attr(group, "shear_rate", r.gdot);
-  out.attr(group, "cpu_seconds", r.cpu_seconds);
-  out.attr(group, "cpu_from_wall", static_cast<std::int64_t>(r.result.cpu_from_wall));
-  out.attr(group, "wall_seconds", r.result.wall_seconds);
-  out.attr(group, "particle_steps", r.particle_steps);
-  if (r.cls.verdict == Verdict::kNotAvailable)
-    return;
-  for (const auto& [k, v] : r.result.integrator_stats)
-    out.attr(group, "integrator_" + k, v);
-  for (const auto& [k, v] : r.result.summary.values)
-    out.attr(group, "summary_" + k, v);
-  out.attr(group, "balance_ratio", r.balance.ratio);
-  out.attr(group, "balance_error", r.balance.error);
-  out.attr(group, "balance_residual", r.balance.residual);
-  out.attr(group, "balance_drift", r.balance.drift);
-  out.attr(group, "balance_raw_ratio", r.balance.raw_ratio);
-  const WindowResult& w = r.window;
-  out.attr(group, "window_status", w.status.text());
-  out.attr(group, "window_step", w.step);
-  out.attr(group, "window_steps", static_cast<std::int64_t>(w.steps_done));
-  out.attr(group, "force_correlation", w.force_correlation);
-  out.attr(group, "alternating_share", w.alternating_share);
-  out.attr(group, "reversed_fraction", w.reversed_fraction);
-  out.attr(group, "dsigma_lag1", w.dsigma_lag1);
-  out.attr(group, "dpressure_lag1", w.dpressure_lag1);
-  out.attr(group, "window_dissipation", w.mean_dissipation);
-  out.attr(group, "lane_order", w.lane_order);
-  out.attr(group, "lane_my", static_cast<std::int64_t>(w.lane_my));
-  out.attr(group, "lane_mz", static_cast<std::int64_t>(w.lane_mz));
-  out.attr(group, "velocity_amplitude", w.velocity_amplitude);
-  if (!with_series)
-    return;
-  const Series& s = r.result.series;
-  if (!s.samples.empty()) {
-    const std::string ts = group + "/timeseries";
-    out.dataset(ts + "/time", s.column(&Sample::time));
-    out.dataset(ts + "/sigma_xy", s.column(&Sample::sigma_xy));
-    out.dataset(ts + "/pressure", s.column(&Sample::pressure));
-    out.dataset(ts + "/phi", s.column(&Sample::phi));
-    out.dataset(ts + "/volume", s.column(&Sample::volume));
-    out.dataset(ts + "/energy", s.column(&Sample::energy));
-    out.dataset(ts + "/dissipation", s.column(&Sample::dissipation));
-    out.dataset(ts + "/piston_dissipation", s.column(&Sample::piston_dissipation));
-  }
-  if (!w.sigma_xy.empty()) {
-    const std::string ws = group + "/window";
-    out.dataset(ws + "/sigma_xy", w.sigma_xy);
-    out.dataset(ws + "/pressure", w.pressure);
-    out.dataset(ws + "/dissipation", w.dissipation);
-  }
-}
-
-// ---- Scenes ---------------------------------------------------------------------------------
 
 std::string cpu_cell(const DiagnosedRun& run) {
   return num(run.cpu_seconds, 3) + (run.result.cpu_from_wall ? " (wall)" : "");

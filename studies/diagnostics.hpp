@@ -15,10 +15,6 @@
 #include "driver/verdicts.hpp"
 #include "studies/study.hpp"
 
-namespace jamflow {
-class H5Writer;
-}
-
 namespace jamflow::studies {
 
 // ---- Scalar series ------------------------------------------------------------------------
@@ -230,10 +226,6 @@ std::optional<int> run_stage(const std::string& study, const std::string& stage,
 // "none" when every run is in.
 std::string excluded_section(const std::vector<const DiagnosedRun*>& runs);
 
-// A study's per-run budget in particle-steps (N x force evaluations; 0: none) as a run's
-// [run] max_force_evaluations for N particles.
-std::int64_t budget_for(double particle_steps, std::int64_t n);
-
 // Reads one run back as run_stage does (tests): `file` is a run file of `spec`'s scene.
 DiagnosedRun diagnose_file(const std::string& label, const RunSpec& spec, const std::string& file,
                            const RunRequest& request, const Thresholds& thresholds = {});
@@ -242,12 +234,10 @@ DiagnosedRun diagnose_file(const std::string& label, const RunSpec& spec, const 
 // so that no integrator step is shortened to land on a sample (dt <= 0: target itself).
 double commensurate(double target, double dt);
 
-// Writes a diagnosed run under `group`: attributes (verdict, reason, status, summary values,
-// energy balance, window metrics, cost) and the sampled series.
-void write_diagnosed(H5Writer& out, const std::string& group, const DiagnosedRun& run,
-                     bool with_series = true);
-
 // ---- Scenes for the studies -----------------------------------------------------------------
+
+// The studies build their scenes from their comparison plans (ComparePlan::setting_scene); these
+// typed builders remain for requests written by hand (the stage framework's own tests).
 
 // One state point of the harmonic (or alpha_r) mixture under shear.
 struct StatePoint {
