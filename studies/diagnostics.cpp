@@ -413,12 +413,6 @@ std::string DiagnosedRun::verdict_text() const {
   return "?";
 }
 
-double commensurate(double target, double dt) {
-  if (!(dt > 0.0))
-    return target;
-  return dt * std::max(1.0, std::round(target / dt));
-}
-
 namespace {
 
 // The text of a failed verdict ("" if it passed or was not checked).
@@ -437,14 +431,10 @@ std::string last_line(const std::string& path) {
   return last;
 }
 
-// The scene of a request as the stage's sweep gives it to its point: overrides applied, the
-// typed integrator settings as [integrator], the seed, the start state and the budget.
+// The scene of a request as the stage's sweep gives it to its point: with the seed, the start
+// state and the budget.
 Scene request_scene(const RunRequest& r) {
-  Scene scene = Scene::parse(r.scene.toml, r.label);
-  for (const auto& o : r.overrides)
-    scene.set(o);
-  if (r.scene.integrator)
-    scene.set_section("integrator", r.scene.integrator->table());
+  Scene scene = Scene::parse(r.scene, r.label);
   toml::table system = scene.table("system") ? *scene.table("system") : toml::table{};
   system.insert_or_assign("seed", static_cast<std::int64_t>(r.seed));
   if (!r.init.empty() && r.init != kCountedStart) {
@@ -672,92 +662,6 @@ std::string short_num(double v) {
   char buf[48];
   std::snprintf(buf, sizeof buf, "%.6g", v);
   return buf;
-}
-
-RunSpec StudyScene::spec(const std::vector<std::string>& overrides,
-                         const std::string& source) const {
-  Scene scene = Scene::parse(toml, source);
-  for (const auto& o : overrides)
-    scene.set(o);
-  return integrator ? parse_run_spec(scene, *integrator) : parse_run_spec(scene);
-}
-
-std::string StatePoint::describe() const {
-  std::string s = "N = " + std::to_string(n) + ", alpha = " + short_num(alpha) + ", ";
-  s += constant_pressure ? "P = " + short_num(pressure) : "phi = " + short_num(phi);
-  if (constant_pressure && xi_v != 1e-4)
-    s += ", xi_V = " + short_num(xi_v);
-  s += ", gdot = " + short_num(gdot);
-  return s;
-}
-
-IntegratorSetting euler_setting(double dt) {
-  IntegratorSetting s;
-  s.label = "euler dt=" + short_num(dt);
-  s.settings = IntegratorSettings("euler").set("dt", dt);
-  return s;
-}
-
-IntegratorSetting respa_setting(double dt, int n_inner, const std::string& inner,
-                                const std::string& scheme) {
-  IntegratorSetting s;
-  s.label = "respa " + inner + "x" + std::to_string(n_inner) +
-            (scheme == "euler" ? "" : " " + scheme) + " dt=" + short_num(dt);
-  s.settings = IntegratorSettings("respa")
-                   .set("dt", dt)
-                   .set("n_inner", n_inner)
-                   .set("inner", inner)
-                   .set("inner_scheme", scheme);
-  return s;
-}
-
-IntegratorSetting cvode_setting(double rtol, double atol, long max_steps) {
-  IntegratorSetting s;
-  s.label = "cvode rtol=" + short_num(rtol);
-  s.tolerance = rtol;
-  s.settings = IntegratorSettings("cvode").set("rtol", rtol);
-  if (atol > 0.0)
-    s.settings.set("atol", atol);
-  if (max_steps > 0)
-    s.settings.set("max_steps", std::int64_t{max_steps});
-  return s;
-}
-
-IntegratorSetting rkc_setting(double overlaps, double delta) {
-  IntegratorSetting s;
-  s.label = "rkc atol=" + short_num(overlaps) + " delta";
-  s.tolerance = overlaps;
-  s.settings = IntegratorSettings("rkc").set("atol", overlaps * delta);
-  return s;
-}
-
-std::string state_point_scene(const StatePoint& p, const RunWindow& w) {
-  Scene scene = Scene::parse("", "<study scene>");
-  scene.set_section("system", toml::table{{"N", p.n},
-                                          {"phi", p.phi},
-                                          {"alpha", p.alpha},
-                                          {"seed", static_cast<std::int64_t>(p.seed)}});
-  scene.set_section("ensemble", p.constant_pressure ? toml::table{{"kind", "constant_pressure"},
-                                                                  {"pressure", p.pressure},
-                                                                  {"xi_V", p.xi_v}}
-                                                    : toml::table{{"kind", "constant_volume"}});
-  scene.set_section("shear", toml::table{{"rate", p.gdot}});
-  toml::table run{{"t_eq", w.t_eq},
-                  {"t_av", w.t_av},
-                  {"sample_every", w.sample_every},
-                  {"blocks", std::int64_t{w.blocks}}};
-  if (w.threads > 0)
-    run.insert("threads", std::int64_t{w.threads});
-  scene.set_section("run", std::move(run));
-  return scene.text();
-}
-
-StudyScene scene_toml(const StatePoint& p, const IntegratorSetting& setting, double t_eq,
-                      double t_av, double sample_every, int blocks) {
-  const double se = commensurate(sample_every, setting.dt());
-  const double av = se * std::max(double(blocks), std::round(t_av / se));
-  const double eq = se * std::round(t_eq / se);
-  return StudyScene(state_point_scene(p, {eq, av, se, blocks}), setting.settings);
 }
 
 }  // namespace jamflow::studies

@@ -142,29 +142,12 @@ struct Classification {
 
 // ---- A diagnosed run ------------------------------------------------------------------------
 
-// A study's scene: TOML text for everything but the integrator, and the integrator as typed
-// settings that reach the driver unchanged (parse_run_spec(scene, integrator)). A plain TOML
-// text with its own [integrator] section converts implicitly.
-struct StudyScene {
-  std::string toml;
-  std::optional<IntegratorSettings> integrator;
-  StudyScene() = default;
-  StudyScene(std::string text) : toml(std::move(text)) {}  // NOLINT: implicit on purpose
-  StudyScene(const char* text) : toml(text) {}             // NOLINT
-  StudyScene(std::string text, IntegratorSettings settings)
-      : toml(std::move(text)), integrator(std::move(settings)) {}
-  // Parses the text and applies "section.key=value" overrides, then builds the spec.
-  RunSpec spec(const std::vector<std::string>& overrides = {},
-               const std::string& source = "<study scene>") const;
-};
-
 // The final_xyz of a run that --dry-run counted but did not run.
 inline constexpr const char* kCountedStart = "<counted, not run>";
 
 struct RunRequest {
-  std::string label;                   // also its point's name in the stage's sweep
-  StudyScene scene;                    // TOML text (+ typed integrator settings)
-  std::vector<std::string> overrides;  // "section.key=value"
+  std::string label;  // also its point's name in the stage's sweep
+  std::string scene;  // the scene's TOML text (a comparison plan's setting_scene)
   std::uint64_t seed = 1;
   // XYZ start (an earlier stage's DiagnosedRun::final_xyz); empty: random. kCountedStart (the
   // final state of a stage that --dry-run only counted): the scene's own N and phi stand in.
@@ -229,68 +212,6 @@ std::string excluded_section(const std::vector<const DiagnosedRun*>& runs);
 // Reads one run back as run_stage does (tests): `file` is a run file of `spec`'s scene.
 DiagnosedRun diagnose_file(const std::string& label, const RunSpec& spec, const std::string& file,
                            const RunRequest& request, const Thresholds& thresholds = {});
-
-// The sampling interval closest to `target` that is a whole number (>= 1) of steps of `dt`,
-// so that no integrator step is shortened to land on a sample (dt <= 0: target itself).
-double commensurate(double target, double dt);
-
-// ---- Scenes for the studies -----------------------------------------------------------------
-
-// The studies build their scenes from their comparison plans (ComparePlan::setting_scene); these
-// typed builders remain for requests written by hand (the stage framework's own tests).
-
-// One state point of the harmonic (or alpha_r) mixture under shear.
-struct StatePoint {
-  std::string name;
-  std::int64_t n = 1000;
-  double alpha = 2.0;
-  bool constant_pressure = true;
-  double pressure = 1e-3;  // imposed P (constant pressure)
-  double phi = 0.64;       // constant volume; the initial packing at constant pressure
-  double xi_v = 1e-4;
-  double gdot = 1e-4;
-  std::uint64_t seed = 1;
-  std::string describe() const;  // "N = 1000, alpha = 2, P = 1e-3, gdot = 1e-4"
-};
-
-// One integrator configuration: its typed [integrator] settings and a label. `dt` is the same
-// double as settings' "dt", which the run uses unchanged.
-struct IntegratorSetting {
-  std::string label;       // "euler dt=0.5", "respa particles x4 dt=1", "cvode rtol=1e-5"
-  double tolerance = 0.0;  // cvode rtol; rkc atol in units of the typical overlap
-  IntegratorSettings settings;
-  // The kind (euler | respa | cvode | rkc) and the nominal step (0: adaptive), read from the
-  // settings: one copy of each.
-  const std::string& family() const { return settings.kind; }
-  double dt() const { return settings.number("dt").value_or(0.0); }
-};
-IntegratorSetting euler_setting(double dt);
-// RESPA (see integrators/respa.hpp): inner level "particles" | "piston", scheme euler | heun.
-IntegratorSetting respa_setting(double dt, int n_inner, const std::string& inner,
-                                const std::string& scheme);
-// CVODE with relative tolerance rtol and absolute tolerance atol (<= 0: CVODE's default);
-// max_steps > 0 caps CVODE's steps per advance (a budget, not physics).
-IntegratorSetting cvode_setting(double rtol, double atol, long max_steps = 0);
-// RKC (integrators/rkc.hpp) at its default rtol, with atol = `overlaps` x delta, delta the
-// typical overlap (a length in units of a); `tolerance` holds `overlaps`.
-IntegratorSetting rkc_setting(double overlaps, double delta);
-
-// A run's window and sampling, as its scene's [run] section holds them.
-struct RunWindow {
-  double t_eq = 0.0, t_av = 0.0, sample_every = 1.0;
-  int blocks = 20;
-  int threads = 0;  // [run] threads; 0: not set (the scene's default)
-};
-// The scene of a state point and window, without [integrator] (a study hands that over typed):
-// the one place the studies turn a state point into a scene, from typed values (no text
-// assembled by hand; doubles stay exact), printed as Scene::text() prints scenes.
-std::string state_point_scene(const StatePoint& p, const RunWindow& w);
-
-// The scene for a state point, integrator and durations. sample_every is made commensurate
-// with the step (the exact dt the run uses), and t_eq, t_av whole multiples of it (t_av at
-// least `blocks` samples). Numbers are written at round-trip precision.
-StudyScene scene_toml(const StatePoint& point, const IntegratorSetting& setting, double t_eq,
-                      double t_av, double sample_every, int blocks = 20);
 
 // A report's "CPU s" cell: the run's CPU seconds (3 digits), marked "(wall)" when its file was
 // written before CPU time was recorded and its wall seconds stand in.

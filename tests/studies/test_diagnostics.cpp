@@ -208,13 +208,6 @@ TEST(Diagnostics, Classification) {
   EXPECT_EQ(classify(r, eb, &w, {}).verdict, studies::Verdict::kDiverged);
 }
 
-TEST(Diagnostics, CommensurateSampling) {
-  EXPECT_DOUBLE_EQ(commensurate(1.0, 0.3), 0.9);
-  EXPECT_DOUBLE_EQ(commensurate(1.0, 1.5), 1.5);
-  EXPECT_DOUBLE_EQ(commensurate(1.0, 0.25), 1.0);
-  EXPECT_DOUBLE_EQ(commensurate(2.0, 0.0), 2.0);
-}
-
 TEST(Diagnostics, RejectedSceneIsNotAvailable) {
   RunRequest req;
   req.label = "cvode";

@@ -19,14 +19,12 @@
 namespace jamflow::studies {
 namespace {
 
-StatePoint toy_point() {
-  StatePoint p;
-  p.n = 64;
-  p.constant_pressure = false;
-  p.phi = 0.6;
-  p.gdot = 1e-2;
-  p.seed = 5;
-  return p;
+// The toy state point: 64 harmonic spheres at phi = 0.6 under shear, explicit Euler at dt = 0.05,
+// the window [t_eq, t_eq + t_av] sampled every 1.
+std::string toy_scene(double t_eq, double t_av) {
+  return "[system]\nN = 64\nphi = 0.6\nseed = 5\n[ensemble]\nkind = \"constant_volume\"\n"
+         "[shear]\nrate = 0.01\n[integrator]\nkind = \"euler\"\ndt = 0.05\n[run]\nt_eq = " +
+         std::to_string(t_eq) + "\nt_av = " + std::to_string(t_av) + "\nsample_every = 1.0\n";
 }
 
 struct ToyStudy {
@@ -41,7 +39,7 @@ ToyStudy run_toy(const StudyOptions& o) {
   ToyStudy t;
   RunRequest prep;
   prep.label = "prep";
-  prep.scene = scene_toml(toy_point(), euler_setting(0.05), 200.0, 100.0, 1.0);
+  prep.scene = toy_scene(200.0, 100.0);
   prep.seed = 5;
   prep.window = false;
   t.prep_status = run_stage("toy", "prep", {prep}, o, t.prep, false);
@@ -51,7 +49,7 @@ ToyStudy run_toy(const StudyOptions& o) {
   for (const auto& [label, t_av] : {std::pair{"short", 20.0}, std::pair{"long", 20000.0}}) {
     RunRequest r;
     r.label = label;
-    r.scene = scene_toml(toy_point(), euler_setting(0.05), 20.0, t_av, 1.0);
+    r.scene = toy_scene(20.0, t_av);
     r.seed = 5;
     r.init = t.prep.front().final_xyz;
     r.window = false;
