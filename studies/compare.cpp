@@ -388,7 +388,8 @@ std::string converged_text(const ComparePlan& plan, const analysis::CompareResul
 
 std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& runs,
                       const analysis::CompareResult& res, bool plotted,
-                      const std::vector<DiagnosedRun>& preps, const std::string& section) {
+                      const std::vector<DiagnosedRun>& preps, const std::string& section,
+                      const std::string& cost) {
   const std::string ref = plan.settings[plan.reference].label;
   std::string md = "# Comparison `" + plan.name + "`\n\n";
   md += std::to_string(plan.settings.size()) + " settings, " + std::to_string(plan.replicas) +
@@ -401,6 +402,7 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
                   " + k, one per N), so differences are paired "
                   "replica by replica.\n\n"
             : "Every setting continues from `" + plan.init + "`.\n\n";
+  md += cost;
   for (std::size_t i = 0; i < plan.settings.size(); ++i) {
     const CompareSetting& s = plan.settings[i];
     const std::string source =
@@ -726,7 +728,7 @@ CaseAnalysis analyse_case(const CaseRuns& c, std::vector<std::vector<DiagnosedRu
 
 // A case's outputs under c.out: table.csv, compare.h5, the plots and report.md (with `section`).
 void write_case(const CaseRuns& c, CaseAnalysis& a, const StudyOptions& options,
-                const std::string& section) {
+                const std::string& section, const std::string& cost) {
   const ComparePlan& plan = *c.plan;
   const analysis::CompareResult& res = a.result;
   ensure_dir(c.out);
@@ -738,7 +740,7 @@ void write_case(const CaseRuns& c, CaseAnalysis& a, const StudyOptions& options,
   std::vector<DiagnosedRun> preps;
   for (const DiagnosedRun* p : c.preps)
     preps.push_back(*p);
-  write_text(c.out + "/report.md", report_md(plan, a.runs, res, plotted, preps, section));
+  write_text(c.out + "/report.md", report_md(plan, a.runs, res, plotted, preps, section, cost));
   if (!options.quiet) {
     std::printf("compare %s: %zu settings -> %s/report.md\n", plan.name.c_str(),
                 plan.settings.size(), c.out.c_str());
@@ -754,11 +756,11 @@ void write_case(const CaseRuns& c, CaseAnalysis& a, const StudyOptions& options,
 // case the recommendation and the unstable settings, and where its report is; then `section`).
 void write_cases_summary(const ComparePlan& top, const std::vector<CaseRuns>& cases,
                          const std::vector<CaseAnalysis>& analyses, const std::string& out,
-                         const std::string& section) {
+                         const std::string& section, const std::string& cost) {
   std::string csv,
       md = "# Comparison `" + top.name + "`: " + std::to_string(cases.size()) + " cases\n\n";
   md += "The settings against the reference `" + top.settings[top.reference].label +
-        "` (or the case's own) in each case; each case's report is in its folder.\n\n";
+        "` (or the case's own) in each case; each case's report is in its folder.\n\n" + cost;
   std::vector<std::vector<std::string>> rows;
   for (std::size_t i = 0; i < cases.size(); ++i) {
     const ComparePlan& plan = *cases[i].plan;
@@ -948,10 +950,42 @@ int run_compare(const ComparePlan& top, const StudyOptions& options,
   }
   if (sweep::mpi_launched() && sweep::launched_rank() != 0)
     return 0;
+  // The cost of every run of the comparison (and of the study's own stage): one line in the
+  // report's opening, which `study paper` shows.
+  std::string cost;
+  {
+    double prep_cpu = 0.0, cpu = 0.0;
+    std::size_t runs = 0, from_wall = 0;
+    const auto add = [&](const DiagnosedRun& r, double& into) {
+      if (!(r.cpu_seconds > 0.0))
+        return;
+      into += r.cpu_seconds;
+      ++runs;
+      from_wall += r.result.cpu_from_wall ? 1 : 0;
+    };
+    for (const DiagnosedRun& r : preps)
+      add(r, prep_cpu);
+    for (const CaseAnalysis& a : analyses)
+      for (const SettingRuns& sr : a.runs)
+        for (const DiagnosedRun& r : sr.replicas)
+          add(r, cpu);
+    runs += own.runs;
+    cpu += own.cpu_seconds;
+    cost = "Cost: " + num((prep_cpu + cpu) / 3600.0, 3) + " CPU-hours over " +
+           std::to_string(runs) + " runs (each run's CPU time on its own thread; preparations " +
+           num(prep_cpu / 3600.0, 3) +
+           (own.runs > 0 ? ", the study's own stage " + num(own.cpu_seconds / 3600.0, 3)
+                         : std::string()) +
+           (from_wall > 0 ? "; " + std::to_string(from_wall) +
+                                " run files predate CPU time and give their wall time"
+                          : std::string()) +
+           ").\n\n";
+  }
   for (std::size_t i = 0; i < cases.size(); ++i)
-    write_case(cases[i], analyses[i], options, top.cases.empty() ? own.markdown : "");
+    write_case(cases[i], analyses[i], options, top.cases.empty() ? own.markdown : "",
+               top.cases.empty() ? cost : "");
   if (!top.cases.empty())
-    write_cases_summary(top, cases, analyses, options.out_dir, own.markdown);
+    write_cases_summary(top, cases, analyses, options.out_dir, own.markdown, cost);
   if (!own.values.empty()) {
     H5Writer w(options.out_dir + "/" + (top.study.empty() ? top.name : top.study) + ".h5");
     w.attr("/", "compare_file", top.path);

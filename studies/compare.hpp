@@ -144,6 +144,10 @@ struct CompareSection {
   CompareSection(std::string text) : markdown(std::move(text)) {}  // NOLINT: implicit
   std::string markdown;
   std::vector<std::pair<std::string, Attributes>> values;
+  // A follow-up's own runs (CompareFollowUp): their number and CPU seconds join the report's
+  // cost line.
+  std::size_t runs = 0;
+  double cpu_seconds = 0.0;
 };
 
 // A study's own section of a comparison's report (the seed's numbers beside the comparison's,

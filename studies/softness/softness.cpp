@@ -917,6 +917,13 @@ int run_softness_plan(const ComparePlan& softness_plan, const StudyOptions& opti
     std::vector<DiagnosedRun> done;
     if (const auto status = run_stage("softness", "pscan", requests, options, done, true))
       return *status;
+    std::size_t runs = 0;
+    double cpu = 0.0;
+    for (const DiagnosedRun& r : done)
+      if (r.cpu_seconds > 0.0) {
+        ++runs;
+        cpu += r.cpu_seconds;
+      }
     for (std::size_t q = 0; q < n_scan; ++q) {
       const auto& [a, j, k] = index[q];
       results[a].pscan[j][k].run = std::move(done[q]);
@@ -968,7 +975,10 @@ int run_softness_plan(const ComparePlan& softness_plan, const StudyOptions& opti
         ar.cost[j] = c;
       }
     }
-    return softness_section(p, results, refs, optimum, n_particles);
+    CompareSection section = softness_section(p, results, refs, optimum, n_particles);
+    section.runs = runs;
+    section.cpu_seconds = cpu;
+    return section;
   };
   return run_compare(plan, options, {}, {"softness/plot.py"}, follow_up);
 }

@@ -128,6 +128,11 @@ system = { phi = 0.55 }
   ASSERT_NE(at, std::string::npos) << top;
   EXPECT_GT(at, top.find("| case | reference | cheapest within tolerance | unstable |"));
   EXPECT_NE(top.find("- case 'dilute', coarse: 2 runs, unstable", at), std::string::npos) << top;
+  // The opening states the cost of every run: 2 cases x 2 prepared states, 3 + 2 settings x 2.
+  const auto cost = top.find("Cost: ");
+  ASSERT_NE(cost, std::string::npos) << top;
+  EXPECT_LT(cost, top.find("| case |"));
+  EXPECT_NE(top.find(" CPU-hours over 14 runs (", cost), std::string::npos) << top;
   for (const char* c : {"dense", "dilute"}) {
     const std::string report = read_text(fs::path(o.out_dir) / c / "report.md");
     EXPECT_NE(report.find("## Recommendation"), std::string::npos) << c;

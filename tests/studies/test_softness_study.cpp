@@ -255,6 +255,9 @@ TEST(SoftnessStudy, TinyPlan) {
   const std::string report((std::istreambuf_iterator<char>(in)), {});
   EXPECT_NE(report.find("### Common P → 0 reference"), std::string::npos);
   EXPECT_NE(report.find("](alpha=2_delta=0.003/report.md)"), std::string::npos);
+  // The cost line counts the comparison's 10 runs and the study's own stage's 4.
+  EXPECT_NE(report.find(" CPU-hours over 14 runs ("), std::string::npos) << report;
+  EXPECT_NE(report.find(", the study's own stage "), std::string::npos) << report;
 
   H5Reader r(dir + "/softness.h5");
   const std::string a = "/alphas/a00";
