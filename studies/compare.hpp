@@ -108,6 +108,11 @@ struct ComparePlan {
   std::vector<std::int64_t> sizes() const;
 };
 
+// The typical overlap delta = P^(1/(alpha_r - 1)) (SPEC §4) of a scene: its imposed pressure at
+// constant pressure, else `measured` (a mean P_hat), else 1e-3 (a stand-in where nothing has run).
+double typical_overlap(const Scene& scene,
+                       double measured = std::numeric_limits<double>::quiet_NaN());
+
 // A setting's integrator as the tables name it: its kind, its family (the kind, and for RESPA
 // its splitting: "respa particlesx4", "respa particlesx2 heun"), its fixed step and its relative
 // tolerance (NaN where the kind has none).

@@ -130,9 +130,6 @@ const std::vector<std::string>& compare_observables() {
   return kObservables;
 }
 
-// The typical overlap delta = P^(1/(alpha_r - 1)) (SPEC §4) of a scene: its imposed pressure at
-// constant pressure, else `measured` (the mean P_hat of the runs it starts from), else 1e-3 (a
-// stand-in where nothing has run: the checks before the runs, --dry-run).
 double typical_overlap(const Scene& scene, double measured) {
   const toml::table* sys = scene.table("system");
   const toml::node* a = sys ? sys->get("alpha") : nullptr;

@@ -821,11 +821,7 @@ int run_softness_plan(const ComparePlan& softness_plan, const StudyOptions& opti
   std::map<double, std::vector<std::size_t>> by_alpha;
   for (std::size_t c = 0; c < plan.cases.size(); ++c)
     by_alpha[scene_number(plan.cases[c].base, "system", "alpha", 2.0)].push_back(c);
-  const auto delta_of = [&](std::size_t c) {
-    const double alpha = scene_number(plan.cases[c].base, "system", "alpha", 2.0);
-    return std::pow(scene_number(plan.cases[c].base, "ensemble", "pressure", kNaN),
-                    1.0 / (alpha - 1.0));
-  };
+  const auto delta_of = [&](std::size_t c) { return typical_overlap(plan.cases[c].base); };
   for (auto& [alpha, cases] : by_alpha) {
     std::sort(cases.begin(), cases.end(),
               [&](std::size_t a, std::size_t b) { return delta_of(a) > delta_of(b); });
