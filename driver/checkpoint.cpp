@@ -286,30 +286,22 @@ std::vector<ReplicaResult> read_checkpoint(const H5Reader& r) {
 
 namespace {
 
-// Attributes of a /summary group that describe the run rather than summarize it (write_replica
-// in run.cpp, and the ensembles' describe()): they are in the scene, not summary values.
-bool summary_value(const std::string& name) {
-  for (const char* described :
-       {"N", "alpha", "wall_seconds", "cpu_seconds", "shear_rate", "imposed_pressure", "xi_V"})
-    if (name == described)
-      return false;
-  return name.rfind("integrator", 0) != 0;
-}
-
 Summary read_summary(const H5Reader& r, const std::string& g) {
   Summary s;
   if (!r.exists(g))
-    return s;  // a replica stopped before its summary (the budget)
+    return s;  // a replica stopped before its summary (the budget) has no numbers: not computed
   for (const auto& name : r.attr_names(g)) {
     if (name.rfind("verdict_", 0) == 0) {
       s.verdicts[name.substr(8)] = Verdict::parse(r.attr_string(g, name));
     } else if (name == "run_length" || name == "t_eq_method") {
       s.texts[name] = r.attr_string(g, name);
-    } else if (summary_value(name)) {
+    } else {
+      // The summary's numbers (Summary::set); the attributes that describe the run (N, alpha,
+      // the ensemble's, the integrator's, the times) and the verdicts' values are not set.
       try {
-        s.values[name] = r.attr_double(g, name);
+        s.set(name, r.attr_double(g, name));
       } catch (const std::exception&) {
-        // text attributes (ensemble, status) and integers (N) are not summary values
+        // text attributes (ensemble, status) are not summary values
       }
     }
   }

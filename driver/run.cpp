@@ -165,7 +165,10 @@ Length decide_length(const RunSpec& spec, const Series& series, const StepPairs*
   const Summary sum = summarize(eff, series, steps);
   const bool sheared = spec.shear_rate > 0.0;
   const std::string name = !sheared ? "pressure" : spec.ensemble->imposed_pressure() ? "mu" : "eta";
-  const double value = sum.values.at(name), err = sum.values.at(name + "_err");
+  const Estimate e = !sheared                            ? sum.pressure
+                     : spec.ensemble->imposed_pressure() ? sum.mu
+                                                         : *sum.eta;
+  const double value = e.value, err = e.err;
   const double rel = std::abs(err / value);
   const bool decorrelated = sum.verdicts.at("decorrelated").passed();
   char what[200];
@@ -460,8 +463,8 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
     RunSpec eff = spec;
     eff.t_eq = len.t_eq;
     res.summary = summarize(eff, res.series, steps);
-    res.summary.values["t_eq"] = len.t_eq;
-    res.summary.values["t_av"] = res.series.samples.back().time - len.t_eq;
+    res.summary.t_eq = len.t_eq;
+    res.summary.t_av = res.series.samples.back().time - len.t_eq;
     res.summary.texts["run_length"] = len.why;
     res.summary.texts["t_eq_method"] = len.method;
     if (spec.auto_av && len.why.rfind("max_time", 0) == 0)

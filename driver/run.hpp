@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -112,16 +113,55 @@ struct Verdict {
   bool operator==(const Verdict&) const = default;
 };
 
+// An observable averaged over the window (its blocks): the mean, the block error and, for the
+// mean of several replicas, the error from their scatter (combine_replicas).
+struct Estimate {
+  double value = std::numeric_limits<double>::quiet_NaN();
+  double err = std::numeric_limits<double>::quiet_NaN();
+  std::optional<double> replica_err;  // a mean over replicas only
+};
+
+// The summary of a run or of the mean of its replicas. A number that does not apply is absent
+// (an empty optional) and is not written to the run file; the names of the numbers in files,
+// tables and Python are those of value() (README "Output").
 struct Summary {
-  std::map<std::string, double> values;  // name -> value (see write_summary for the names)
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  bool computed = false;  // false: the run stopped before its summary (its budget)
+  // Block averages: <name>, <name>_err and, over replicas, <name>_replica_err.
+  Estimate sigma_xy, pressure, phi, energy;
+  Estimate mu;  // sigma_xy / P, with the imposed P at constant pressure
+  // Work / dissipation with the enthalpy drift removed; its error is the file's
+  // energy_balance_err.
+  Estimate energy_balance_corrected;
+  std::optional<Estimate> eta;             // sigma_xy / gdot, with shear only
+  std::optional<double> eta_block_std, J;  // with shear only (J = gdot / P)
+  double phi_block_std = kNaN, dissipation = kNaN;
+  double energy_balance = kNaN;  // work / dissipation
+  double samples = kNaN, block_length = kNaN;
+  // Integrated autocorrelation times and the trends' t statistics of the block means.
+  double tau_sigma_xy = kNaN, tau_pressure = kNaN, tau_phi = kNaN;
+  double trend_t_phi = kNaN, trend_t_sigma_xy = kNaN, trend_t_pressure = kNaN;
+  std::optional<double> force_step_correlation;  // fixed-step integrators only
+  std::optional<double> t_eq, t_av;              // the window the run took (run_replica)
+  std::optional<double> replicas;                // a mean over this many replicas
+  std::optional<double> wall_seconds_total, cpu_seconds_total;  // over the replicas
+
   std::vector<std::string> warnings;
-  // The verdicts (driver/verdicts.hpp) by name: "steady", "stable", "decorrelated".
-  // values[name] is verdicts[name].value().
+  // The verdicts (driver/verdicts.hpp) by name: "steady", "stable", "decorrelated". Their
+  // values (Verdict::value) are numbers of the summary under the same names.
   std::map<std::string, Verdict> verdicts;
   // Texts: "run_length" (with t_av = "auto": whether the target or max_time ended the run),
   // "t_eq_method".
   std::map<std::string, std::string> texts;
   bool failed() const;  // any verdict failed
+
+  // Every number present, by its name in run files, in the order of names.
+  std::vector<std::pair<std::string, double>> values() const;
+  // One of them by name; NaN if absent.
+  double value(std::string_view name) const;
+  // Sets a number by its name in run files (the verdicts' values are ignored: they come with
+  // the verdicts); false if no number has that name.
+  bool set(std::string_view name, double v);
 };
 
 // Forces at consecutive integrator steps, at each sample of the averaging window: sum of

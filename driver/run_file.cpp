@@ -208,8 +208,7 @@ void write_replica(H5Writer& w, const RunSpec& spec, const ReplicaResult& r,
       write_unit(w, ts + "/" + name);
     }
   }
-  const auto t_eq = r.summary.values.find("t_eq");
-  w.attr(ts, "t_eq", t_eq == r.summary.values.end() ? spec.t_eq : t_eq->second);
+  w.attr(ts, "t_eq", r.summary.t_eq.value_or(spec.t_eq));
   w.attr(ts, "seed", static_cast<std::int64_t>(r.seed));
 
   // Final configuration, in particle id order; cell rows are the lattice vectors.
@@ -244,7 +243,7 @@ Attributes summary_attributes(const RunSpec& spec, const ReplicaResult& r,
                               const ReplicaResult* summary) {
   Attributes out;
   const ReplicaResult& src = summary ? *summary : r;
-  for (const auto& [k, v] : src.summary.values)
+  for (const auto& [k, v] : src.summary.values())
     out.emplace_back(k, v);
   for (const auto& [k, v] : src.summary.verdicts)
     out.emplace_back("verdict_" + k, v.text());
@@ -283,8 +282,8 @@ ReplicaResult replicas_summary(const std::vector<ReplicaResult>& replicas) {
     all.cpu_from_wall = all.cpu_from_wall || r.cpu_from_wall;
   }
   all.summary = combine_replicas(sums);
-  all.summary.values["wall_seconds_total"] = wall;
-  all.summary.values["cpu_seconds_total"] = cpu;
+  all.summary.wall_seconds_total = wall;
+  all.summary.cpu_seconds_total = cpu;
   return all;
 }
 

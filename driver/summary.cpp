@@ -1,9 +1,11 @@
 // The summary of a run: block averages, errors, verdicts, the combination of replicas, and the
 // summary printed at the end of `jamflow run`.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
+#include <type_traits>
 
 #include "driver/run.hpp"
 #include "driver/run_detail.hpp"
@@ -56,9 +58,90 @@ bool Summary::failed() const {
   return false;
 }
 
+namespace {
+
+// Calls f(name, number) for every number of a summary under its name in run files: number is a
+// double (always present) or a std::optional<double> (present where it applies). The one list
+// of those names.
+template <class S, class F>
+void for_each_number(S& s, F&& f) {
+  const auto estimate = [&](const std::string& name, auto& e, const std::string& err) {
+    f(name, e.value);
+    f(err, e.err);
+    f(name + "_replica_err", e.replica_err);
+  };
+  for (auto [name, e] :
+       {std::pair{"sigma_xy", &s.sigma_xy}, std::pair{"pressure", &s.pressure},
+        std::pair{"phi", &s.phi}, std::pair{"energy", &s.energy}, std::pair{"mu", &s.mu}})
+    estimate(name, *e, std::string(name) + "_err");
+  estimate("energy_balance_corrected", s.energy_balance_corrected, "energy_balance_err");
+  if (s.eta)
+    estimate("eta", *s.eta, "eta_err");
+  f("eta_block_std", s.eta_block_std);
+  f("J", s.J);
+  f("phi_block_std", s.phi_block_std);
+  f("dissipation", s.dissipation);
+  f("energy_balance", s.energy_balance);
+  f("samples", s.samples);
+  f("block_length", s.block_length);
+  f("tau_sigma_xy", s.tau_sigma_xy);
+  f("tau_pressure", s.tau_pressure);
+  f("tau_phi", s.tau_phi);
+  f("trend_t_phi", s.trend_t_phi);
+  f("trend_t_sigma_xy", s.trend_t_sigma_xy);
+  f("trend_t_pressure", s.trend_t_pressure);
+  f("force_step_correlation", s.force_step_correlation);
+  f("t_eq", s.t_eq);
+  f("t_av", s.t_av);
+  f("replicas", s.replicas);
+  f("wall_seconds_total", s.wall_seconds_total);
+  f("cpu_seconds_total", s.cpu_seconds_total);
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, double>> Summary::values() const {
+  std::vector<std::pair<std::string, double>> out;
+  if (!computed)
+    return out;
+  for_each_number(*this, [&](const std::string& name, const auto& v) {
+    if constexpr (std::is_same_v<std::decay_t<decltype(v)>, double>) {
+      out.emplace_back(name, v);
+    } else if (v) {
+      out.emplace_back(name, *v);
+    }
+  });
+  for (const auto& [name, v] : verdicts)
+    out.emplace_back(name, v.value());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+double Summary::value(std::string_view name) const {
+  for (const auto& [n, v] : values())
+    if (n == name)
+      return v;
+  return kNaN;
+}
+
+bool Summary::set(std::string_view name, double v) {
+  const bool eta_name = name == "eta" || name == "eta_err" || name == "eta_replica_err";
+  if (eta_name && !eta)
+    eta.emplace();
+  bool found = false;
+  for_each_number(*this, [&](const std::string& n, auto& number) {
+    if (n == name) {
+      number = v;
+      found = true;
+    }
+  });
+  computed = computed || found;
+  return found;
+}
+
 Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* steps) {
   Summary sum;
-  auto& out = sum.values;
+  sum.computed = true;
   std::vector<Sample> win;
   const double t0 = spec.t_eq - 1e-9 * spec.sample_every;
   for (const auto& s : series.samples) {
@@ -93,20 +176,15 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
   const BlockAverage be = block_average(energy, nb);
   const BlockAverage bw = block_average(work, nb);
   const BlockAverage bl = block_average(loss, nb);
-  out["sigma_xy"] = bs.mean;
-  out["sigma_xy_err"] = bs.error;
-  out["pressure"] = bp.mean;
-  out["pressure_err"] = bp.error;
-  out["phi"] = bphi.mean;
-  out["phi_err"] = bphi.error;
-  out["phi_block_std"] = bphi.block_std;
-  out["energy"] = be.mean;
-  out["energy_err"] = be.error;
-  out["dissipation"] = bl.mean;
-  out["energy_balance"] =
-      bl.mean > 0.0 ? bw.mean / bl.mean : std::numeric_limits<double>::quiet_NaN();
-  out["samples"] = double(win.size());
-  out["block_length"] = double(win.size() / nb) * spec.sample_every;
+  sum.sigma_xy = {bs.mean, bs.error, {}};
+  sum.pressure = {bp.mean, bp.error, {}};
+  sum.phi = {bphi.mean, bphi.error, {}};
+  sum.phi_block_std = bphi.block_std;
+  sum.energy = {be.mean, be.error, {}};
+  sum.dissipation = bl.mean;
+  sum.energy_balance = bl.mean > 0.0 ? bw.mean / bl.mean : Summary::kNaN;
+  sum.samples = double(win.size());
+  sum.block_length = double(win.size() / nb) * spec.sample_every;
 
   const std::optional<double> imposed = spec.ensemble->imposed_pressure();
   // mu = sigma / P: with the imposed P at constant pressure, else the block ratio.
@@ -115,54 +193,53 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
     mu_blocks[b] = bs.blocks[b] / (imposed ? *imposed : bp.blocks[b]);
   }
   const BlockAverage bmu = block_average(mu_blocks, nb);
-  out["mu"] = imposed ? bs.mean / *imposed : bs.mean / bp.mean;
-  out["mu_err"] = bmu.error;
+  sum.mu = {imposed ? bs.mean / *imposed : bs.mean / bp.mean, bmu.error, {}};
   const double p_ref = imposed ? *imposed : bp.mean;
   if (gdot > 0.0) {
-    out["eta"] = bs.mean / gdot;
-    out["eta_err"] = bs.error / gdot;
-    out["eta_block_std"] = bs.block_std / gdot;
-    out["J"] = gdot / p_ref;  // J = gdot eta_0 / P with eta_0 = xi_s / a = 1
+    sum.eta = Estimate{bs.mean / gdot, bs.error / gdot, {}};
+    sum.eta_block_std = bs.block_std / gdot;
+    sum.J = gdot / p_ref;  // J = gdot eta_0 / P with eta_0 = xi_s / a = 1
   }
   // Integrated autocorrelation times (in time units) of the main observables. Block errors
   // are only trustworthy when a block spans at least about 2 of them. A constant series (phi
   // at constant volume) has tau = half a sample and never warns.
-  const std::pair<const char*, const std::vector<double>*> correlated[] = {
-      {"sigma_xy", &sigma}, {"pressure", &press}, {"phi", &phi}};
+  const std::tuple<const char*, const std::vector<double>*, double*> correlated[] = {
+      {"sigma_xy", &sigma, &sum.tau_sigma_xy},
+      {"pressure", &press, &sum.tau_pressure},
+      {"phi", &phi, &sum.tau_phi}};
   const VerdictThresholds limits;
   std::string too_short;
-  for (const auto& [name, series_ptr] : correlated) {
+  for (const auto& [name, series_ptr, tau_out] : correlated) {
     const double tau = integrated_autocorrelation(*series_ptr) * spec.sample_every;
-    out[std::string("tau_") + name] = tau;
+    *tau_out = tau;
     if (!std::isfinite(tau) && too_short.empty()) {
       too_short = std::string("tau_") + name + " = " + short_num(tau) + " not finite";
-    } else if (!(out["block_length"] >= limits.decorrelation_blocks * tau) && too_short.empty()) {
+    } else if (!(sum.block_length >= limits.decorrelation_blocks * tau) && too_short.empty()) {
       // How much too small the block errors are, for correlations that decay exponentially
       // (more if slower).
-      const double low = 1.0 - block_error_ratio(out["block_length"], tau);
+      const double low = 1.0 - block_error_ratio(sum.block_length, tau);
       char text[240];
       std::snprintf(text, sizeof text,
                     "blocks of %.4g are shorter than %g tau_%s = %.4g, so block errors are "
                     "about %.0f%% too small (more if correlations decay slower than "
                     "exponentially)",
-                    out["block_length"], limits.decorrelation_blocks, name,
+                    sum.block_length, limits.decorrelation_blocks, name,
                     limits.decorrelation_blocks * tau, 100.0 * low);
       too_short = text;
     }
   }
   auto verdict = [&](const std::string& name, bool pass, const std::string& why) {
     sum.verdicts[name] = pass ? Verdict::pass() : Verdict::fail(why);
-    out[name] = sum.verdicts[name].value();
   };
   // A value that is not a number (0 / 0 with no contacts, say) fails the verdict that rests on
   // it: NaN would pass every test written as !(x > limit).
   const auto not_finite = [&](std::initializer_list<const char*> keys) {
     std::string bad;
-    for (const char* key : keys) {
-      const auto it = out.find(key);
-      if (it != out.end() && !std::isfinite(it->second))
-        bad += (bad.empty() ? "" : ", ") + std::string(key) + " = " + short_num(it->second);
-    }
+    const auto present = sum.values();  // an absent number (eta without shear) is not checked
+    for (const char* key : keys)
+      for (const auto& [name, v] : present)
+        if (name == key && !std::isfinite(v))
+          bad += (bad.empty() ? "" : ", ") + name + " = " + short_num(v);
     return bad.empty() ? bad : bad + " not finite";
   };
   // decorrelated: every block at least 2 tau long.
@@ -172,11 +249,12 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
   // steady: no significant trend of the block means.
   std::string drift;
   double worst = 0.0;
-  for (const auto& [name, b] : {std::pair<const char*, const BlockAverage*>{"phi", &bphi},
-                                {"sigma_xy", &bs},
-                                {"pressure", &bp}}) {
+  for (const auto& [name, b, t_out] :
+       {std::tuple<const char*, const BlockAverage*, double*>{"phi", &bphi, &sum.trend_t_phi},
+        {"sigma_xy", &bs, &sum.trend_t_sigma_xy},
+        {"pressure", &bp, &sum.trend_t_pressure}}) {
     const double t = trend_t(b->blocks);
-    out[std::string("trend_t_") + name] = t;
+    *t_out = t;
     if (std::abs(t) > worst || !std::isfinite(t)) {
       worst = std::isfinite(t) ? std::abs(t) : std::numeric_limits<double>::infinity();
       if (!(std::abs(t) <= limits.trend_t_max)) {
@@ -198,14 +276,13 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
 
   // stable: energy balance and no step-to-step oscillation of the forces.
   const EnergyBalance eb = energy_balance(series.samples, spec.t_eq, gdot, imposed, nb);
-  out["energy_balance_corrected"] = eb.ratio;
-  out["energy_balance_err"] = eb.error;
+  sum.energy_balance_corrected = {eb.ratio, eb.error, {}};
   std::string unstable, unchecked;
-  if (gdot > 0.0 && !std::isfinite(out["energy_balance"])) {
+  if (gdot > 0.0 && !std::isfinite(sum.energy_balance)) {
     char text[200];
     std::snprintf(text, sizeof text,
                   "energy balance = %s not finite (work %.4g / dissipation %.4g)",
-                  short_num(out["energy_balance"]).c_str(), bw.mean, bl.mean);
+                  short_num(sum.energy_balance).c_str(), bw.mean, bl.mean);
     unstable = text;
   } else if (eb.valid) {
     const double allowed = std::max(limits.balance_tolerance, limits.balance_sigmas * eb.error);
@@ -221,7 +298,7 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
     unchecked = gdot > 0.0 ? "energy balance not available" : "no shear: no energy balance";
   }
   if (steps && steps->pairs > 0) {
-    out["force_step_correlation"] = steps->correlation();
+    sum.force_step_correlation = steps->correlation();
     if (!(steps->correlation() >= limits.force_correlation_min) && unstable.empty()) {
       char text[200];
       std::snprintf(text, sizeof text,
@@ -238,7 +315,6 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
     verdict("stable", false, unstable);
   } else if (!unchecked.empty() && !(steps && steps->pairs > 0)) {
     sum.verdicts["stable"] = Verdict::not_checked(unchecked);
-    out["stable"] = sum.verdicts["stable"].value();
   } else {
     verdict("stable", true, "");
   }
@@ -253,36 +329,47 @@ Summary combine_replicas(const std::vector<Summary>& summaries) {
   if (summaries.empty())
     throw std::invalid_argument("combine_replicas: no replicas");
   const auto k = summaries.size();
-  auto ends_with = [](const std::string& s, const std::string& tail) {
-    return s.size() > tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
-  };
   Summary out;
-  for (const auto& [name, first] : summaries.front().values) {
-    (void)first;
-    if (ends_with(name, "_err"))
-      continue;  // handled with its observable
+  out.computed = true;
+  // An estimate: mean, propagated block error and replica scatter; absent unless every
+  // replica has it.
+  const auto estimate = [&](auto of) -> std::optional<Estimate> {
     std::vector<double> means, errors;
-    bool everywhere = true;
     for (const auto& s : summaries) {
-      const auto it = s.values.find(name);
-      if (it == s.values.end()) {
-        everywhere = false;
-        break;
-      }
-      means.push_back(it->second);
-      const auto e = s.values.find(name + "_err");
-      errors.push_back(e == s.values.end() ? 0.0 : e->second);
+      const std::optional<Estimate> e = of(s);
+      if (!e)
+        return std::nullopt;
+      means.push_back(e->value);
+      errors.push_back(e->err);
     }
-    if (!everywhere)
-      continue;
     const ReplicaAverage ra = replica_average(means, errors);
-    out.values[name] = ra.mean;
-    if (summaries.front().values.count(name + "_err")) {
-      out.values[name + "_err"] = ra.block_error;
-      out.values[name + "_replica_err"] = ra.replica_error;
+    return Estimate{ra.mean, ra.block_error, ra.replica_error};
+  };
+  for (Estimate Summary::*m : {&Summary::sigma_xy, &Summary::pressure, &Summary::phi,
+                               &Summary::energy, &Summary::mu, &Summary::energy_balance_corrected})
+    out.*m = *estimate([m](const Summary& s) { return std::optional<Estimate>(s.*m); });
+  out.eta = estimate([](const Summary& s) { return s.eta; });
+  // A number without an error: the plain mean (absent unless every replica has it).
+  const auto mean = [&](auto of) -> std::optional<double> {
+    double sum = 0.0;
+    for (const auto& s : summaries) {
+      const std::optional<double> v = of(s);
+      if (!v)
+        return std::nullopt;
+      sum += *v;
     }
-  }
-  out.values["replicas"] = double(k);
+    return sum / double(k);
+  };
+  for (double Summary::*m :
+       {&Summary::phi_block_std, &Summary::dissipation, &Summary::energy_balance, &Summary::samples,
+        &Summary::block_length, &Summary::tau_sigma_xy, &Summary::tau_pressure, &Summary::tau_phi,
+        &Summary::trend_t_phi, &Summary::trend_t_sigma_xy, &Summary::trend_t_pressure})
+    out.*m = *mean([m](const Summary& s) { return std::optional<double>(s.*m); });
+  for (std::optional<double> Summary::*m :
+       {&Summary::eta_block_std, &Summary::J, &Summary::force_step_correlation, &Summary::t_eq,
+        &Summary::t_av})
+    out.*m = mean([m](const Summary& s) { return s.*m; });
+  out.replicas = double(k);
   // A verdict of the replicas passes only if it passes for each of them.
   for (const auto& [name, first] : summaries.front().verdicts) {
     (void)first;
@@ -298,7 +385,6 @@ Summary combine_replicas(const std::vector<Summary>& summaries) {
         combined = v;
     }
     out.verdicts[name] = combined;
-    out.values[name] = combined.value();
   }
   for (std::size_t r = 0; r < k; ++r) {
     for (const auto& w : summaries[r].warnings)
@@ -334,8 +420,6 @@ bool print_summary(const RunSpec& spec, const std::vector<ReplicaResult>& result
   const Summary combined = count > 1 ? combine_replicas(sums) : results.front().summary;
   for (const auto& wmsg : combined.warnings)
     std::fprintf(stderr, "warning: %s\n", wmsg.c_str());
-  const auto& v = combined.values;
-  auto get = [&](const std::string& k) { return v.count(k) ? v.at(k) : std::nan(""); };
   std::printf("jamflow run: N = %lld, %s, %s, gdot = %g -> %s\n", (long long)spec.n,
               spec.ensemble->name().c_str(), spec.integrator.kind.c_str(), spec.shear_rate,
               spec.file.c_str());
@@ -346,22 +430,23 @@ bool print_summary(const RunSpec& spec, const std::vector<ReplicaResult>& result
     std::printf("  mean over %zu replicas +- block error +- replica-scatter error\n", count);
   }
   // With replicas: "value +- block error +- replica error"; alone: "value +- block error".
-  auto line = [&](const char* label, const std::string& k, const char* value_format) {
+  auto line = [&](const char* label, const std::optional<Estimate>& e, const char* value_format) {
+    const Estimate x = e.value_or(Estimate{});
     std::printf("  %-14s = ", label);
-    std::printf(value_format, get(k));
-    std::printf(" +- %.2e", get(k + "_err"));
+    std::printf(value_format, x.value);
+    std::printf(" +- %.2e", x.err);
     if (count > 1)
-      std::printf(" +- %.2e", get(k + "_replica_err"));
+      std::printf(" +- %.2e", x.replica_err.value_or(Summary::kNaN));
     std::printf("\n");
   };
-  line("phi", "phi", "%.6f");
-  line("pressure", "pressure", "%.6e");
-  line("sigma_xy", "sigma_xy", "%.6e");
-  line("eta", "eta", "%.6e");
-  line("mu", "mu", "%.6f");
-  std::printf("  J              = %.6e\n", get("J"));
-  std::printf("  energy_balance = %.4f\n", get("energy_balance"));
-  std::printf("  tau_sigma_xy   = %.4g\n", get("tau_sigma_xy"));
+  line("phi", combined.phi, "%.6f");
+  line("pressure", combined.pressure, "%.6e");
+  line("sigma_xy", combined.sigma_xy, "%.6e");
+  line("eta", combined.eta, "%.6e");
+  line("mu", combined.mu, "%.6f");
+  std::printf("  J              = %.6e\n", combined.J.value_or(Summary::kNaN));
+  std::printf("  energy_balance = %.4f\n", combined.energy_balance);
+  std::printf("  tau_sigma_xy   = %.4g\n", combined.tau_sigma_xy);
   for (const auto& [name, v] : combined.verdicts)
     std::printf("  %-14s = %s\n", name.c_str(), v.text().c_str());
   if (spec.auto_eq || spec.auto_av) {
@@ -369,7 +454,8 @@ bool print_summary(const RunSpec& spec, const std::vector<ReplicaResult>& result
       const auto& t = results[r].summary;
       std::printf("  %-14s = %s%.6g after t_eq = %.6g (%s)\n", "t_av",
                   count > 1 ? ("replica " + std::to_string(r) + ": ").c_str() : "",
-                  t.values.at("t_av"), t.values.at("t_eq"), t.texts.at("run_length").c_str());
+                  t.t_av.value_or(Summary::kNaN), t.t_eq.value_or(Summary::kNaN),
+                  t.texts.at("run_length").c_str());
     }
   }
   std::printf("  force passes   = %.6g force-pass equivalents%s\n", equivalents,

@@ -71,10 +71,6 @@ double sample_interval(const DiagnosedRun& r) {
   return s.size() >= 2 ? s[1].time - s[0].time : kNaN;
 }
 
-double summary_value(const DiagnosedRun& r, const char* key) {
-  return r.value(key);
-}
-
 // Why a finished run is not stable: a failed run, or its stable verdict (energy balance, force
 // step correlation; driver/verdicts.hpp) failed. Empty: stable.
 // With diagnose, the diagnostic window's classification too (oscillating, diverged).
@@ -176,7 +172,7 @@ void diagnostics_of(SettingRuns& sr) {
       be += r.balance.error * r.balance.error;
       ++nb;
     }
-    const double corr = summary_value(r, "force_step_correlation");
+    const double corr = r.result.summary.force_step_correlation.value_or(kNaN);
     if (std::isfinite(corr)) {
       c += corr;
       ++nc;
@@ -415,7 +411,8 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
       md += "`" + s.label + "` (constant volume) starts from each " + source +
             " dilated affinely to one packing fraction, the mean over the steady replicas of "
             "their window-mean phi (start = \"mean_phi\")" +
-            (reps.empty() ? std::string() : ": phi = " + num(reps.front().value("phi"), 6)) +
+            (reps.empty() ? std::string()
+                          : ": phi = " + num(reps.front().result.summary.phi.value, 6)) +
             ".\n\n";
     }
   }
@@ -627,13 +624,13 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
 // The steady finished runs' mean of a summary value (all finished runs' if none is steady):
 // of phi, the packing fraction a start = "mean_phi" setting runs at; of the pressure, the one
 // atol_overlaps takes at constant volume. NaN if none finished.
-double pooled(const std::vector<const DiagnosedRun*>& runs, const char* key) {
+double pooled(const std::vector<const DiagnosedRun*>& runs, Estimate Summary::*observable) {
   std::vector<double> steady, all;
   for (const DiagnosedRun* r : runs) {
     if (!r || !r->result.status.is_complete() || r->final_xyz.empty() ||
         r->final_xyz == kCountedStart)
       continue;
-    all.push_back(r->value(key));
+    all.push_back((r->result.summary.*observable).value);
     const auto& v = r->result.summary.verdicts;
     const auto it = v.find("steady");
     if (!(it != v.end() && it->second.failed()))
@@ -677,7 +674,7 @@ std::string start_of(const ComparePlan& plan, std::size_t s, std::size_t k,
     return {};
   if (!plan.settings[s].start_mean_phi || r->final_xyz == kCountedStart)
     return r->final_xyz;
-  const double phi = pooled(source, "phi");
+  const double phi = pooled(source, &Summary::phi);
   const bool from_setting = !plan.settings[s].from.empty();
   return dilated_start(r->final_xyz, phi,
                        out_dir + (from_setting ? "/settings/mean_phi" : "/prepare/mean_phi"),
@@ -883,12 +880,12 @@ int run_compare(const ComparePlan& top, const StudyOptions& options,
             continue;  // its source failed: reported, and the setting did not run this replica
           RunRequest r;
           r.label = c.prefix + set.label + "_r" + std::to_string(k);
-          Scene scene = plan.setting_scene(s, pooled(source, "pressure"));
+          Scene scene = plan.setting_scene(s, pooled(source, &Summary::pressure));
           r.scene = scene.text();
           r.seed = plan.seed + k;
           r.init = init;
           r.window = plan.diagnose;
-          r.window_options = plan.window_options(s, pooled(source, "pressure"));
+          r.window_options = plan.window_options(s, pooled(source, &Summary::pressure));
           const toml::table* run = scene.table("run");
           const toml::node* budget = run ? run->get("max_force_evaluations") : nullptr;
           r.budget = budget && budget->is_integer() ? budget->as_integer()->get() : 0;

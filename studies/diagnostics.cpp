@@ -382,12 +382,6 @@ Classification classify(const ReplicaResult& result, const EnergyBalance& balanc
 
 // ---- Diagnosed runs -------------------------------------------------------------------------
 
-double DiagnosedRun::value(const std::string& key) const {
-  const auto& v = result.summary.values;
-  const auto it = v.find(key);
-  return it == v.end() ? kNaN : it->second;
-}
-
 std::string DiagnosedRun::verdict_text() const {
   switch (cls.verdict) {
     case Verdict::kStable:
@@ -569,11 +563,10 @@ DiagnosedRun diagnose_file(const std::string& label, const RunSpec& spec, const 
   // are shorter than 2 tau with one replica (no scatter to fall back on).
   const std::string drift = failed_verdict(d.result.summary, "steady");
   const std::string short_blocks = failed_verdict(d.result.summary, "decorrelated");
-  const auto replicas = d.result.summary.values.find("replicas");
   const analysis::Admission admission =
       analysis::admit({drift.empty() ? std::nullopt : std::optional<bool>(false), std::nullopt,
                        short_blocks.empty() ? std::nullopt : std::optional<bool>(false),
-                       replicas == d.result.summary.values.end() ? 1.0 : replicas->second});
+                       d.result.summary.replicas.value_or(1.0)});
   d.cls.correlated = !short_blocks.empty();
   if (d.cls.verdict == Verdict::kStable && !admission.admitted) {
     d.cls.verdict = drift.empty() ? Verdict::kCorrelated : Verdict::kNotSteady;

@@ -182,7 +182,6 @@ struct DiagnosedRun {
   bool complete() const {
     return cls.verdict != Verdict::kNotAvailable && result.status.is_complete();
   }
-  double value(const std::string& key) const;  // summary value, NaN if absent
   // "stable", "oscillating (reason)", "diverged (t = ..., message)", "not available (...)",
   // "incomplete (stopped at t = ... by the budget)", "correlated (blocks < 2 tau, ...)".
   std::string verdict_text() const;

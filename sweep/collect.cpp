@@ -145,12 +145,12 @@ PointTable build_table(const Plan& plan, bool all_points) {
   std::vector<std::vector<std::string>>& table = out.rows;
   for (const auto& row : rows) {
     const bool complete = row.status.is_complete();
-    const auto& v = row.sum.values;
-    auto get = [&](const std::string& k) {
-      const auto it = v.find(k);
-      return it == v.end() ? std::nan("") : it->second;
-    };
-    const bool several = get("replicas") > 1.5;
+    const Summary& sum = row.sum;
+    const double nan = std::nan("");
+    const bool several = sum.replicas.value_or(1.0) > 1.5;
+    // The observables of the table, in its order.
+    const std::optional<Estimate> estimates[] = {sum.phi, sum.pressure, sum.sigma_xy, sum.eta,
+                                                 sum.mu};
     std::vector<std::string> cells = {row.point->name};
     for (const auto& [k, val] : row.point->values) {
       if (!own_column(k))
@@ -161,18 +161,19 @@ PointTable build_table(const Plan& plan, bool all_points) {
     if (all_cp)
       cells.push_back(fmt(*row.spec.ensemble->imposed_pressure()));
     cells.push_back(fmt(row.spec.shear_rate));
-    const double replicas = several ? get("replicas") : 1.0;
-    for (const auto& o : observables) {
-      cells.push_back(cell(get(o)));
-      cells.push_back(
-          cell(replica_point_error(get(o + "_err"), get(o + "_replica_err"), replicas)));
+    const double replicas = several ? *sum.replicas : 1.0;
+    for (const auto& e : estimates) {
+      const Estimate x = e.value_or(Estimate{});
+      cells.push_back(cell(x.value));
+      cells.push_back(cell(replica_point_error(x.err, x.replica_err.value_or(nan), replicas)));
     }
-    cells.push_back(cell(get("J")));
-    cells.push_back(cell(get("energy_balance")));
-    cells.push_back(
-        !complete ? "" : std::to_string(several ? static_cast<long long>(get("replicas")) : 1LL));
-    for (const char* verdict : {"steady", "stable", "decorrelated"})
-      cells.push_back(cell(get(verdict)));
+    cells.push_back(cell(sum.J.value_or(nan)));
+    cells.push_back(cell(sum.computed ? sum.energy_balance : nan));
+    cells.push_back(!complete ? "" : std::to_string(static_cast<long long>(replicas)));
+    for (const char* verdict : {"steady", "stable", "decorrelated"}) {
+      const auto v = sum.verdicts.find(verdict);
+      cells.push_back(cell(v == sum.verdicts.end() ? nan : v->second.value()));
+    }
     const double none = std::nan("");  // the cost of a point without results: not summed
     cells.push_back(cell(complete ? row.wall_seconds : none));
     cells.push_back(cell(complete ? row.cpu_seconds : none));
@@ -180,9 +181,10 @@ PointTable build_table(const Plan& plan, bool all_points) {
     cells.push_back(cell(complete ? row.force_evaluations : none));
     cells.push_back(cell(complete ? row.equivalents : none));
     cells.push_back(csv_cell(fs::relative(plan.point_dir(*row.point), plan.out_dir).string()));
-    for (const auto& o : observables) {
-      cells.push_back(cell(get(o + "_err")));
-      cells.push_back(cell(several ? get(o + "_replica_err") : std::nan("")));
+    for (const auto& e : estimates) {
+      const Estimate x = e.value_or(Estimate{});
+      cells.push_back(cell(x.err));
+      cells.push_back(cell(several ? x.replica_err.value_or(nan) : nan));
     }
     if (all_points)
       cells.push_back(row.status.text());

@@ -451,24 +451,20 @@ Reference combine_reference(double j, std::vector<DiagnosedRun> replicas) {
     return ref;
   }
   const Summary s = sums.size() > 1 ? combine_replicas(sums) : sums.front();
-  auto get = [&](const std::string& k) {
-    const auto it = s.values.find(k);
-    return it == s.values.end() ? kNaN : it->second;
-  };
   // The block error of the mean, or the replica scatter if larger (the rule of the sweep's
   // collect for points with several replicas).
-  auto err = [&](const std::string& k) {
-    const double b = get(k + "_err"), r = get(k + "_replica_err");
-    return std::isfinite(r) ? std::max(b, r) : b;
+  auto err = [&](const Estimate& e) {
+    const double r = e.replica_err.value_or(kNaN);
+    return std::isfinite(r) ? std::max(e.err, r) : e.err;
   };
   ref.value.usable = true;
-  ref.value.mu = get("mu");
-  ref.value.mu_err = err("mu");
-  ref.value.phi = get("phi");
-  ref.value.phi_err = err("phi");
-  ref.tau_phi = get("tau_phi");
-  ref.tau_sigma = get("tau_sigma_xy");
-  ref.block_length = get("block_length");
+  ref.value.mu = s.mu.value;
+  ref.value.mu_err = err(s.mu);
+  ref.value.phi = s.phi.value;
+  ref.value.phi_err = err(s.phi);
+  ref.tau_phi = s.tau_phi;
+  ref.tau_sigma = s.tau_sigma_xy;
+  ref.block_length = s.block_length;
   return ref;
 }
 
@@ -483,8 +479,14 @@ Attributes run_attributes(const DiagnosedRun& r) {
                   {"reason", r.cls.reason},
                   {"cpu_seconds", r.cpu_seconds},
                   {"particle_steps", r.particle_steps}};
-  for (const char* k : {"mu", "mu_err", "phi", "phi_err", "tau_phi", "tau_sigma_xy"})
-    a.push_back({std::string("summary_") + k, r.value(k)});
+  const Summary& s = r.result.summary;
+  for (const auto& [k, v] : {std::pair{"mu", s.mu.value},
+                             {"mu_err", s.mu.err},
+                             {"phi", s.phi.value},
+                             {"phi_err", s.phi.err},
+                             {"tau_phi", s.tau_phi},
+                             {"tau_sigma_xy", s.tau_sigma_xy}})
+    a.push_back({std::string("summary_") + k, v});
   return a;
 }
 
@@ -732,10 +734,11 @@ CompareSection softness_section(const SoftnessParameters& p,
           vs = std::string(pr.agrees ? "agrees" : "**differs**") + " (Δμ " + num(pr.dmu, 2) +
                " ± " + num(pr.dmu_err, 2) + ", Δφ " + num(pr.dphi, 2) + " ± " +
                num(pr.dphi_err, 2) + ")";
-        rows.push_back({short_num(pr.delta), num(pr.pressure, 3), r.verdict_text(),
-                        r.complete() ? pm(r.value("mu"), r.value("mu_err"), 4) : "—",
-                        r.complete() ? pm(r.value("phi"), r.value("phi_err"), 5) : "—", vs,
-                        cell(pr.duration), cpu_cell(r)});
+        rows.push_back(
+            {short_num(pr.delta), num(pr.pressure, 3), r.verdict_text(),
+             r.complete() ? pm(r.result.summary.mu.value, r.result.summary.mu.err, 4) : "—",
+             r.complete() ? pm(r.result.summary.phi.value, r.result.summary.phi.err, 5) : "—", vs,
+             cell(pr.duration), cpu_cell(r)});
       }
       md += "#### α_r = " + short_num(ar.alpha) + ", J = " + short_num(j) + " (" + ar.integrator +
             ")\n\n" +
@@ -941,9 +944,11 @@ int run_softness_plan(const ComparePlan& softness_plan, const StudyOptions& opti
         AlphaResult& ar = results[a];
         auto& runs = ar.pscan[j];
         std::vector<ScanValue> values;
-        for (const PressureRun& pr : runs)
-          values.push_back({pr.pressure, pr.run.cls.verdict == Verdict::kStable, pr.run.value("mu"),
-                            pr.run.value("mu_err"), pr.run.value("phi"), pr.run.value("phi_err")});
+        for (const PressureRun& pr : runs) {
+          const Summary& s = pr.run.result.summary;
+          values.push_back({pr.pressure, pr.run.cls.verdict == Verdict::kStable, s.mu.value,
+                            s.mu.err, s.phi.value, s.phi.err});
+        }
         const PStar ps = find_p_star(values, refs[j].value);
         for (std::size_t k = 0; k < runs.size(); ++k) {
           runs[k].agrees = ps.agrees[k];

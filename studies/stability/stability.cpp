@@ -289,10 +289,12 @@ std::string window_table(const CompareCaseOutcome& c) {
         rows.push_back({label, d->verdict_text(), "—", "—", "—", "—", "—", "—", "—"});
         continue;
       }
-      rows.push_back({label, d->verdict_text(), pm(d->balance.ratio, d->balance.error, 3),
-                      num(d->window.force_correlation, 3), num(d->window.reversed_fraction, 2),
-                      num(d->window.dsigma_lag1, 2), num(d->window.lane_order, 2),
-                      num(d->value(p.constant_pressure ? "phi" : "pressure"), 5), cpu_cell(*d)});
+      rows.push_back(
+          {label, d->verdict_text(), pm(d->balance.ratio, d->balance.error, 3),
+           num(d->window.force_correlation, 3), num(d->window.reversed_fraction, 2),
+           num(d->window.dsigma_lag1, 2), num(d->window.lane_order, 2),
+           num((p.constant_pressure ? d->result.summary.phi : d->result.summary.pressure).value, 5),
+           cpu_cell(*d)});
     }
   }
   return markdown_table(

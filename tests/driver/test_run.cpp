@@ -58,14 +58,14 @@ TEST(Run, SteadyStateEnergyBalance) {
   opt.quiet = true;
   const ReplicaResult r = run_replica(spec, spec.seed, opt);
   ASSERT_TRUE(r.status.is_complete()) << r.status.text();
-  const auto& v = r.summary.values;
-  EXPECT_NEAR(v.at("energy_balance"), 1.0, 0.02);
-  EXPECT_GT(v.at("sigma_xy"), 0.0);  // sigma_xy gdot >= 0
-  EXPECT_GT(v.at("pressure"), 0.0);
-  EXPECT_NEAR(v.at("phi"), 0.62, 1e-12);
-  EXPECT_NEAR(v.at("eta"), v.at("sigma_xy") / 1e-3, 1e-9 * v.at("eta"));
-  EXPECT_NEAR(v.at("mu"), v.at("sigma_xy") / v.at("pressure"), 1e-3 * v.at("mu"));
-  EXPECT_NEAR(v.at("J"), 1e-3 / v.at("pressure"), 1e-12);
+  const Summary& v = r.summary;
+  EXPECT_NEAR(v.energy_balance, 1.0, 0.02);
+  EXPECT_GT(v.sigma_xy.value, 0.0);  // sigma_xy gdot >= 0
+  EXPECT_GT(v.pressure.value, 0.0);
+  EXPECT_NEAR(v.phi.value, 0.62, 1e-12);
+  EXPECT_NEAR(v.eta->value, v.sigma_xy.value / 1e-3, 1e-9 * v.eta->value);
+  EXPECT_NEAR(v.mu.value, v.sigma_xy.value / v.pressure.value, 1e-3 * v.mu.value);
+  EXPECT_NEAR(*v.J, 1e-3 / v.pressure.value, 1e-12);
 }
 
 TEST(Run, SameSceneAndSeedGiveBitwiseIdenticalSeries) {
@@ -223,7 +223,8 @@ TEST(Run, ForceEvaluationBudgetStopsAtTheSameSampleAndFinishesTheFile) {
   ASSERT_EQ(a.series.samples.size(), b.series.samples.size());
   EXPECT_LT(a.series.samples.size(), 50u);
   EXPECT_GT(a.series.samples.size(), 5u);
-  EXPECT_TRUE(a.summary.values.empty());
+  EXPECT_FALSE(a.summary.computed);
+  EXPECT_TRUE(a.summary.values().empty());
 
   // Through run_and_write: the file is final (not .part), exit status 0, and it reads back.
   const std::string out = dir.file("budget.h5");
@@ -240,7 +241,7 @@ TEST(Run, ForceEvaluationBudgetStopsAtTheSameSampleAndFinishesTheFile) {
   ASSERT_EQ(f.replicas.size(), 1u);
   EXPECT_EQ(f.replicas[0].status, a.status);
   EXPECT_EQ(f.replicas[0].series.samples.size(), a.series.samples.size());
-  EXPECT_TRUE(f.replicas[0].summary.values.empty());
+  EXPECT_FALSE(f.replicas[0].summary.computed);
 
   // Without a budget (0, the default) the run completes.
   EXPECT_EQ(spec_of(text).max_force_evaluations, 0);
@@ -263,7 +264,7 @@ TEST(Run, RunFileReadsBackTheRun) {
     ASSERT_EQ(f.replicas.size(), 1u);
     const ReplicaResult& b = f.replicas[0];
     EXPECT_TRUE(b.status.is_complete()) << b.status.text();
-    EXPECT_EQ(b.summary.values.at("sigma_xy"), r.summary.values.at("sigma_xy"));
+    EXPECT_EQ(b.summary.sigma_xy.value, r.summary.sigma_xy.value);
     EXPECT_EQ(b.summary.verdicts, r.summary.verdicts);
     EXPECT_EQ(b.summary.texts, r.summary.texts);
     if (everything) {
@@ -404,7 +405,7 @@ TEST(Run, RecordsCpuSecondsAndForcePassEquivalents) {
     EXPECT_EQ(f.replicas[0].cpu_seconds, h.attr_double("/replicas/0/summary", "cpu_seconds"));
     EXPECT_FALSE(f.replicas[0].cpu_from_wall);
     // Not a summary value: it describes the run.
-    EXPECT_EQ(f.replicas[0].summary.values.count("cpu_seconds"), 0u);
+    EXPECT_TRUE(std::isnan(f.replicas[0].summary.value("cpu_seconds")));
   }
 }
 
@@ -488,8 +489,16 @@ TEST(Run, EveryDatasetAndSummaryValueOfARunFileHasAUnit) {
     // The readers of /summary take its attributes only: the same values as the run's.
     const RunFile f = read_run_file(out, true);
     ASSERT_EQ(f.replicas.size(), c.replicas);
-    for (std::size_t k = 0; k < c.replicas; ++k)
-      EXPECT_EQ(f.replicas[k].summary.values.size(), runs[k].summary.values.size()) << c.name;
+    for (std::size_t k = 0; k < c.replicas; ++k) {
+      const auto read = f.replicas[k].summary.values(), ran = runs[k].summary.values();
+      ASSERT_EQ(read.size(), ran.size()) << c.name;
+      for (std::size_t i = 0; i < read.size(); ++i) {
+        EXPECT_EQ(read[i].first, ran[i].first) << c.name;
+        EXPECT_TRUE(read[i].second == ran[i].second ||
+                    (std::isnan(read[i].second) && std::isnan(ran[i].second)))
+            << c.name << ": " << read[i].first;
+      }
+    }
   }
 }
 

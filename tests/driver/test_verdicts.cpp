@@ -128,7 +128,7 @@ TEST(Verdicts, PassAHealthyRun) {
   EXPECT_TRUE(s.verdicts.at("steady").passed()) << s.verdicts.at("steady").text();
   EXPECT_TRUE(s.verdicts.at("decorrelated").passed()) << s.verdicts.at("decorrelated").text();
   EXPECT_FALSE(s.failed());
-  EXPECT_GT(s.values.at("force_step_correlation"), 0.99);
+  EXPECT_GT(*s.force_step_correlation, 0.99);
   for (const auto& w : s.warnings)
     ADD_FAILURE() << "unexpected warning: " << w;
 }
@@ -138,9 +138,9 @@ TEST(Verdicts, PassAHealthyRun) {
 TEST(Verdicts, FlagAnUnstableRun) {
   const Summary s = run(spec_of(scene(kVolume, 0.62, 1e-3, 0.5, 100.0, 1000.0)));
   EXPECT_TRUE(s.verdicts.at("stable").failed()) << s.verdicts.at("stable").text();
-  EXPECT_EQ(s.values.at("stable"), 0.0);
-  EXPECT_LT(s.values.at("force_step_correlation"), 0.0);
-  EXPECT_LT(s.values.at("energy_balance_corrected"), 0.5);
+  EXPECT_EQ(s.verdicts.at("stable").value(), 0.0);
+  EXPECT_LT(*s.force_step_correlation, 0.0);
+  EXPECT_LT(s.energy_balance_corrected.value, 0.5);
   std::size_t lines = 0;
   for (const auto& w : s.warnings)
     lines += w.rfind("not stable: ", 0) == 0;
@@ -155,7 +155,7 @@ TEST(Verdicts, FlagAStatePointThatIsStillDrifting) {
   EXPECT_TRUE(s.verdicts.at("steady").failed());
   EXPECT_EQ(s.verdicts.at("steady").why.rfind("phi drifts from", 0), 0u)
       << s.verdicts.at("steady").why;
-  EXPECT_GT(s.values.at("trend_t_phi"), 4.0);
+  EXPECT_GT(s.trend_t_phi, 4.0);
   EXPECT_TRUE(s.failed());
 }
 
@@ -172,8 +172,8 @@ TEST(Verdicts, NonFiniteValuesFailTheirVerdicts) {
   steps.cross = steps.norm = 1.0;
   steps.pairs = 10;
   const Summary s = summarize(spec, series, &steps);
-  EXPECT_TRUE(std::isnan(s.values.at("mu")));
-  EXPECT_TRUE(std::isinf(s.values.at("J")));
+  EXPECT_TRUE(std::isnan(s.mu.value));
+  EXPECT_TRUE(std::isinf(*s.J));
   ASSERT_TRUE(s.verdicts.at("steady").failed());
   const std::string steady = s.verdicts.at("steady").text();
   EXPECT_EQ(steady.rfind("fail: ", 0), 0u) << steady;
@@ -184,8 +184,8 @@ TEST(Verdicts, NonFiniteValuesFailTheirVerdicts) {
   const std::string stable = s.verdicts.at("stable").text();
   EXPECT_EQ(stable.rfind("fail: energy balance = ", 0), 0u) << stable;
   EXPECT_NE(stable.find("not finite"), std::string::npos) << stable;
-  EXPECT_EQ(s.values.at("steady"), 0.0);
-  EXPECT_EQ(s.values.at("stable"), 0.0);
+  EXPECT_EQ(s.verdicts.at("steady").value(), 0.0);
+  EXPECT_EQ(s.verdicts.at("stable").value(), 0.0);
   EXPECT_TRUE(s.failed());
 
   // The same from a run: phi = 1e-9 has no contacts.
@@ -208,15 +208,15 @@ TEST(AutoLength, TavReachesItsTargetOrStopsAtMaxTime) {
   const Summary a = run(reach);
   EXPECT_EQ(a.texts.at("run_length").rfind("target reached: relative error of eta", 0), 0u)
       << a.texts.at("run_length");
-  EXPECT_LE(a.values.at("eta_err") / a.values.at("eta"), 0.02);
+  EXPECT_LE(a.eta->err / a.eta->value, 0.02);
   EXPECT_TRUE(a.verdicts.at("decorrelated").passed()) << a.verdicts.at("decorrelated").text();
-  EXPECT_LT(a.values.at("t_eq") + a.values.at("t_av"), 20000.0);
+  EXPECT_LT(*a.t_eq + *a.t_av, 20000.0);
   const RunSpec out_of_reach =
       spec_of(base, {"run.t_av=\"auto\"", "run.target_error=1e-4", "run.max_time=1500.0"});
   const Summary b = run(out_of_reach);
   EXPECT_EQ(b.texts.at("run_length").rfind("max_time reached: relative error of eta", 0), 0u)
       << b.texts.at("run_length");
-  EXPECT_DOUBLE_EQ(b.values.at("t_eq") + b.values.at("t_av"), 1500.0);
+  EXPECT_DOUBLE_EQ(*b.t_eq + *b.t_av, 1500.0);
   bool warned = false;
   for (const auto& w : b.warnings)
     warned = warned || w.rfind("t_av = \"auto\": max_time reached", 0) == 0;
@@ -233,10 +233,10 @@ TEST(AutoLength, TavReachesItsTargetOrStopsAtMaxTime) {
 TEST(AutoLength, TeqFindsTheEndOfTheStartUpTransient) {
   const RunSpec spec = spec_of(scene(kVolume, 0.62, 1e-2, 0.1, 0.0, 1500.0), {"run.t_eq=\"auto\""});
   const Summary s = run(spec);
-  EXPECT_GT(s.values.at("t_eq"), 10.0);
-  EXPECT_LT(s.values.at("t_eq"), 300.0);
+  EXPECT_GT(*s.t_eq, 10.0);
+  EXPECT_LT(*s.t_eq, 300.0);
   EXPECT_EQ(s.texts.at("t_eq_method").rfind("MSER-5", 0), 0u);
-  EXPECT_GE(s.values.at("t_av"), 1500.0 - 1e-9);
+  EXPECT_GE(*s.t_av, 1500.0 - 1e-9);
   EXPECT_TRUE(s.verdicts.at("steady").passed()) << s.verdicts.at("steady").text();
 }
 

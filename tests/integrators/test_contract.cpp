@@ -355,11 +355,12 @@ SeedMeans seed_means(Kind k, const Config& c, std::uint64_t first_seed, int seed
   SeedMeans out;
   for (int s = 0; s < seeds; ++s) {
     const Summary sum = steady_summary(k, c, first_seed + std::uint64_t(s), t_av);
-    for (const std::string name : {"sigma_xy", "pressure", "phi"}) {
-      out.means[name].push_back(sum.values.at(name));
-      out.errors[name].push_back(sum.values.at(name + "_err"));
+    for (const auto& [name, e] :
+         {std::pair{"sigma_xy", sum.sigma_xy}, {"pressure", sum.pressure}, {"phi", sum.phi}}) {
+      out.means[name].push_back(e.value);
+      out.errors[name].push_back(e.err);
     }
-    out.energy_balance.push_back(sum.values.at("energy_balance"));
+    out.energy_balance.push_back(sum.energy_balance);
   }
   return out;
 }
@@ -423,7 +424,7 @@ TEST_P(Contract, PistonRelaxesToImposedPressure) {
   opt.quiet = true;
   const ReplicaResult r = run_replica(spec, spec.seed, opt);
   ASSERT_TRUE(r.status.is_complete()) << r.status.text();
-  const auto& v = r.summary.values;
+  const Summary& v = r.summary;
   // Euler's piston satisfies <P_hat> - P = xi_V Delta V / T exactly at its step states, and
   // second-order RESPA nearly so. First-order RESPA samples P_hat right after a piston half-step,
   // an O(dt) bias (+0.14% here; +6% at J = 10, dt = 1, studies/ensemble/README.md): allowed
@@ -431,8 +432,8 @@ TEST_P(Contract, PistonRelaxesToImposedPressure) {
   auto integ = make(c.config, c.config.steady_dt);
   const bool first_order_respa = integ->name() == "respa" && integ->order(*spec.ensemble) == 1;
   const double allowance = first_order_respa ? 5e-3 * 1e-2 : 0.0;
-  EXPECT_LT(std::abs(v.at("pressure") - 1e-2), 4.0 * v.at("pressure_err") + allowance)
-      << v.at("pressure") << " +- " << v.at("pressure_err");
+  EXPECT_LT(std::abs(v.pressure.value - 1e-2), 4.0 * v.pressure.err + allowance)
+      << v.pressure.value << " +- " << v.pressure.err;
   // The volume moved far from its start (phi 0.5 -> above 0.55) and has converged: the two
   // halves of the window differ by less than a tenth of that relaxation. (A 4-sigma test on the
   // halves' block errors failed in one build: 10 blocks of 60 tau underestimate the error of

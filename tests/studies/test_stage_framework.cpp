@@ -99,7 +99,8 @@ TEST(StageFramework, ToyStudyDryRunRunResumeAndAdmission) {
   ASSERT_FALSE(again.main_status.has_value());
   EXPECT_EQ(point_files(o.out_dir), files);
   for (std::size_t k = 0; k < 2; ++k)
-    EXPECT_EQ(again.main[k].value("sigma_xy"), run.main[k].value("sigma_xy"));
+    EXPECT_EQ(again.main[k].result.summary.sigma_xy.value,
+              run.main[k].result.summary.sigma_xy.value);
 
   // Admission: the short run (20 blocks of 1 tau_0, just after its start) is left out, as not
   // steady or as correlated (blocks shorter than 2 tau with one replica), with why; the long one
