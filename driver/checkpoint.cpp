@@ -292,7 +292,8 @@ Summary read_summary(const H5Reader& r, const std::string& g) {
     return s;  // a replica stopped before its summary (the budget) has no numbers: not computed
   for (const auto& name : r.attr_names(g)) {
     if (name.rfind("verdict_", 0) == 0) {
-      s.verdicts[name.substr(8)] = Verdict::parse(r.attr_string(g, name));
+      if (Verdict* v = s.verdict(name.substr(8)))
+        *v = Verdict::parse(r.attr_string(g, name));
     } else if (name == "run_length" || name == "t_eq_method") {
       s.texts[name] = r.attr_string(g, name);
     } else {

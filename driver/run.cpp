@@ -170,7 +170,7 @@ Length decide_length(const RunSpec& spec, const Series& series, const StepPairs*
                                                          : *sum.eta;
   const double value = e.value, err = e.err;
   const double rel = std::abs(err / value);
-  const bool decorrelated = sum.verdicts.at("decorrelated").passed();
+  const bool decorrelated = sum.decorrelated.passed();
   char what[200];
   std::snprintf(what, sizeof what, "relative error of %s %.3g %s target_error %g%s at t_av = %g",
                 name.c_str(), rel, rel <= spec.target_error ? "<=" : ">", spec.target_error,

@@ -146,14 +146,17 @@ struct Summary {
   std::optional<double> replicas;                // a mean over this many replicas
   std::optional<double> wall_seconds_total, cpu_seconds_total;  // over the replicas
 
+  // The verdicts (driver/verdicts.hpp): no significant trend of the block means; the energy
+  // balance and no step-to-step oscillation; blocks of at least 2 tau. Their values
+  // (Verdict::value) are numbers of the summary under the same names (kVerdicts).
+  Verdict steady, stable, decorrelated;
   std::vector<std::string> warnings;
-  // The verdicts (driver/verdicts.hpp) by name: "steady", "stable", "decorrelated". Their
-  // values (Verdict::value) are numbers of the summary under the same names.
-  std::map<std::string, Verdict> verdicts;
   // Texts: "run_length" (with t_av = "auto": whether the target or max_time ended the run),
   // "t_eq_method".
   std::map<std::string, std::string> texts;
   bool failed() const;  // any verdict failed
+  // The verdict of that name in run files; nullptr if none has it.
+  Verdict* verdict(std::string_view name);
 
   // Every number present, by its name in run files, in the order of names.
   std::vector<std::pair<std::string, double>> values() const;
@@ -163,6 +166,12 @@ struct Summary {
   // the verdicts); false if no number has that name.
   bool set(std::string_view name, double v);
 };
+
+// The verdicts of a summary by their names in run files (verdict_<name>), in the order of names.
+inline constexpr std::pair<const char*, Verdict Summary::*> kVerdicts[] = {
+    {"decorrelated", &Summary::decorrelated},
+    {"stable", &Summary::stable},
+    {"steady", &Summary::steady}};
 
 // Forces at consecutive integrator steps, at each sample of the averaging window: sum of
 // F(t - dt) . F(t) and of (|F(t - dt)|^2 + |F(t)|^2) / 2 (the stable verdict's oscillation test).

@@ -245,8 +245,9 @@ Attributes summary_attributes(const RunSpec& spec, const ReplicaResult& r,
   const ReplicaResult& src = summary ? *summary : r;
   for (const auto& [k, v] : src.summary.values())
     out.emplace_back(k, v);
-  for (const auto& [k, v] : src.summary.verdicts)
-    out.emplace_back("verdict_" + k, v.text());
+  if (src.summary.computed)
+    for (const auto& [k, v] : kVerdicts)
+      out.emplace_back("verdict_" + std::string(k), (src.summary.*v).text());
   for (const auto& [k, v] : r.summary.texts)
     out.emplace_back(k, v);
   out.emplace_back("N", static_cast<std::int64_t>(r.final_state.size()));

@@ -52,10 +52,14 @@ double Verdict::value() const {
 }
 
 bool Summary::failed() const {
-  for (const auto& [name, verdict] : verdicts)
-    if (verdict.failed())
-      return true;
-  return false;
+  return steady.failed() || stable.failed() || decorrelated.failed();
+}
+
+Verdict* Summary::verdict(std::string_view name) {
+  for (const auto& [n, v] : kVerdicts)
+    if (n == name)
+      return &(this->*v);
+  return nullptr;
 }
 
 namespace {
@@ -111,8 +115,8 @@ std::vector<std::pair<std::string, double>> Summary::values() const {
       out.emplace_back(name, *v);
     }
   });
-  for (const auto& [name, v] : verdicts)
-    out.emplace_back(name, v.value());
+  for (const auto& [name, v] : kVerdicts)
+    out.emplace_back(name, (this->*v).value());
   std::sort(out.begin(), out.end());
   return out;
 }
@@ -229,7 +233,7 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
     }
   }
   auto verdict = [&](const std::string& name, bool pass, const std::string& why) {
-    sum.verdicts[name] = pass ? Verdict::pass() : Verdict::fail(why);
+    *sum.verdict(name) = pass ? Verdict::pass() : Verdict::fail(why);
   };
   // A value that is not a number (0 / 0 with no contacts, say) fails the verdict that rests on
   // it: NaN would pass every test written as !(x > limit).
@@ -314,13 +318,13 @@ Summary summarize(const RunSpec& spec, const Series& series, const StepPairs* st
   if (!unstable.empty()) {
     verdict("stable", false, unstable);
   } else if (!unchecked.empty() && !(steps && steps->pairs > 0)) {
-    sum.verdicts["stable"] = Verdict::not_checked(unchecked);
+    sum.stable = Verdict::not_checked(unchecked);
   } else {
     verdict("stable", true, "");
   }
-  for (const auto& [name, v] : sum.verdicts) {
-    if (v.failed())
-      sum.warnings.push_back("not " + name + ": " + v.why);
+  for (const auto& [name, v] : kVerdicts) {
+    if ((sum.*v).failed())
+      sum.warnings.push_back("not " + std::string(name) + ": " + (sum.*v).why);
   }
   return sum;
 }
@@ -371,12 +375,11 @@ Summary combine_replicas(const std::vector<Summary>& summaries) {
     out.*m = mean([m](const Summary& s) { return s.*m; });
   out.replicas = double(k);
   // A verdict of the replicas passes only if it passes for each of them.
-  for (const auto& [name, first] : summaries.front().verdicts) {
-    (void)first;
+  for (const auto& named : kVerdicts) {
+    const auto member = named.second;
     Verdict combined = Verdict::pass();
     for (std::size_t r = 0; r < k; ++r) {
-      const auto it = summaries[r].verdicts.find(name);
-      const Verdict v = it == summaries[r].verdicts.end() ? Verdict::not_checked("") : it->second;
+      const Verdict& v = summaries[r].*member;
       if (v.failed()) {
         combined = Verdict::fail("replica " + std::to_string(r) + ": " + v.why);
         break;
@@ -384,7 +387,7 @@ Summary combine_replicas(const std::vector<Summary>& summaries) {
       if (!v.passed() && combined.passed())
         combined = v;
     }
-    out.verdicts[name] = combined;
+    out.*member = combined;
   }
   for (std::size_t r = 0; r < k; ++r) {
     for (const auto& w : summaries[r].warnings)
@@ -447,8 +450,8 @@ bool print_summary(const RunSpec& spec, const std::vector<ReplicaResult>& result
   std::printf("  J              = %.6e\n", combined.J.value_or(Summary::kNaN));
   std::printf("  energy_balance = %.4f\n", combined.energy_balance);
   std::printf("  tau_sigma_xy   = %.4g\n", combined.tau_sigma_xy);
-  for (const auto& [name, v] : combined.verdicts)
-    std::printf("  %-14s = %s\n", name.c_str(), v.text().c_str());
+  for (const auto& [name, v] : kVerdicts)
+    std::printf("  %-14s = %s\n", name, (combined.*v).text().c_str());
   if (spec.auto_eq || spec.auto_av) {
     for (std::size_t r = 0; r < results.size(); ++r) {
       const auto& t = results[r].summary;

@@ -79,10 +79,8 @@ std::string unstable_reason(const DiagnosedRun& r, bool diagnose) {
     return r.verdict_text();
   if (diagnose && (r.cls.verdict == Verdict::kOscillating || r.cls.verdict == Verdict::kDiverged))
     return r.verdict_text();
-  const auto it = r.result.summary.verdicts.find("stable");
-  if (it != r.result.summary.verdicts.end() && it->second.failed())
-    return it->second.text();
-  return {};
+  const jamflow::Verdict& stable = r.result.summary.stable;
+  return stable.failed() ? stable.text() : std::string();
 }
 
 struct SettingRuns {
@@ -114,9 +112,7 @@ analysis::CompareInput analysis_input(const ComparePlan& plan,
       if (!why.empty() && si.why_unstable.empty())
         si.why_unstable = r.label + ": " + why;
       si.stable = si.stable && why.empty();
-      const auto& v = r.result.summary.verdicts;
-      const auto steady = v.find("steady");
-      si.steady = si.steady && !(steady != v.end() && steady->second.failed());
+      si.steady = si.steady && !r.result.summary.steady.failed();
       all_complete = all_complete && r.result.status.is_complete();
     }
     // Pairs need every replica: a setting whose preparation failed for some replica did not run
@@ -177,11 +173,8 @@ void diagnostics_of(SettingRuns& sr) {
       c += corr;
       ++nc;
     }
-    const auto& v = r.result.summary.verdicts;
-    if (auto it = v.find("steady"); it != v.end() && it->second.failed())
-      ++sr.steady_failed;
-    if (auto it = v.find("decorrelated"); it != v.end() && it->second.failed())
-      ++sr.decorrelated_failed;
+    sr.steady_failed += r.result.summary.steady.failed();
+    sr.decorrelated_failed += r.result.summary.decorrelated.failed();
   }
   if (nb > 0) {
     sr.balance = b / nb;
@@ -420,14 +413,12 @@ std::string report_md(const ComparePlan& plan, const std::vector<SettingRuns>& r
   // settings' t_eq; one that did not finish leaves its replica out.
   std::vector<std::string> drifting_preps;
   for (const DiagnosedRun& p : preps) {
-    const auto& v = p.result.summary.verdicts;
-    const auto steady = v.find("steady");
     if (!p.result.status.is_complete())
       md += "Preparation " + p.label + " did not finish (" + p.verdict_text() +
             "): the settings that start from it are not analysed (to retry, remove its "
             "folder under prepare/runs/points/ and run again).\n\n";
-    else if (steady != v.end() && steady->second.failed())
-      drifting_preps.push_back(p.label + " (" + steady->second.why + ")");
+    else if (p.result.summary.steady.failed())
+      drifting_preps.push_back(p.label + " (" + p.result.summary.steady.why + ")");
   }
   if (!drifting_preps.empty())
     md +=
@@ -631,9 +622,7 @@ double pooled(const std::vector<const DiagnosedRun*>& runs, Estimate Summary::*o
         r->final_xyz == kCountedStart)
       continue;
     all.push_back((r->result.summary.*observable).value);
-    const auto& v = r->result.summary.verdicts;
-    const auto it = v.find("steady");
-    if (!(it != v.end() && it->second.failed()))
+    if (!r->result.summary.steady.failed())
       steady.push_back(all.back());
   }
   const auto& use = steady.empty() ? all : steady;

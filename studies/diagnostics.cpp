@@ -410,9 +410,8 @@ std::string DiagnosedRun::verdict_text() const {
 namespace {
 
 // The text of a failed verdict ("" if it passed or was not checked).
-std::string failed_verdict(const Summary& summary, const char* name) {
-  const auto it = summary.verdicts.find(name);
-  return it != summary.verdicts.end() && it->second.failed() ? it->second.why : std::string();
+std::string failed_verdict(const jamflow::Verdict& v) {
+  return v.failed() ? v.why : std::string();
 }
 
 // The last non-empty line of a file (a run's log: what stopped it).
@@ -561,8 +560,8 @@ DiagnosedRun diagnose_file(const std::string& label, const RunSpec& spec, const 
   // The run's own verdicts, by the admission rule of every table (analysis/admission.hpp): a
   // stable run whose window still drifts is kept out of conclusions, and so is one whose blocks
   // are shorter than 2 tau with one replica (no scatter to fall back on).
-  const std::string drift = failed_verdict(d.result.summary, "steady");
-  const std::string short_blocks = failed_verdict(d.result.summary, "decorrelated");
+  const std::string drift = failed_verdict(d.result.summary.steady);
+  const std::string short_blocks = failed_verdict(d.result.summary.decorrelated);
   const analysis::Admission admission =
       analysis::admit({drift.empty() ? std::nullopt : std::optional<bool>(false), std::nullopt,
                        short_blocks.empty() ? std::nullopt : std::optional<bool>(false),

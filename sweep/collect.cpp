@@ -170,10 +170,8 @@ PointTable build_table(const Plan& plan, bool all_points) {
     cells.push_back(cell(sum.J.value_or(nan)));
     cells.push_back(cell(sum.computed ? sum.energy_balance : nan));
     cells.push_back(!complete ? "" : std::to_string(static_cast<long long>(replicas)));
-    for (const char* verdict : {"steady", "stable", "decorrelated"}) {
-      const auto v = sum.verdicts.find(verdict);
-      cells.push_back(cell(v == sum.verdicts.end() ? nan : v->second.value()));
-    }
+    for (const Verdict* v : {&sum.steady, &sum.stable, &sum.decorrelated})
+      cells.push_back(cell(sum.computed ? v->value() : nan));
     const double none = std::nan("");  // the cost of a point without results: not summed
     cells.push_back(cell(complete ? row.wall_seconds : none));
     cells.push_back(cell(complete ? row.cpu_seconds : none));

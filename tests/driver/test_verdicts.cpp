@@ -124,9 +124,9 @@ TEST(TrendT, SeesALineAndNotNoise) {
 // against tau_sigma_xy of a few tau at gdot = 1e-2, and a window that starts after the transient.
 TEST(Verdicts, PassAHealthyRun) {
   const Summary s = run(spec_of(scene(kVolume, 0.62, 1e-2, 0.1, 500.0, 2000.0)));
-  EXPECT_TRUE(s.verdicts.at("stable").passed()) << s.verdicts.at("stable").text();
-  EXPECT_TRUE(s.verdicts.at("steady").passed()) << s.verdicts.at("steady").text();
-  EXPECT_TRUE(s.verdicts.at("decorrelated").passed()) << s.verdicts.at("decorrelated").text();
+  EXPECT_TRUE(s.stable.passed()) << s.stable.text();
+  EXPECT_TRUE(s.steady.passed()) << s.steady.text();
+  EXPECT_TRUE(s.decorrelated.passed()) << s.decorrelated.text();
   EXPECT_FALSE(s.failed());
   EXPECT_GT(*s.force_step_correlation, 0.99);
   for (const auto& w : s.warnings)
@@ -137,8 +137,8 @@ TEST(Verdicts, PassAHealthyRun) {
 // and the energy balance collapses (0.12 at N = 200, where the dissipation is inflated).
 TEST(Verdicts, FlagAnUnstableRun) {
   const Summary s = run(spec_of(scene(kVolume, 0.62, 1e-3, 0.5, 100.0, 1000.0)));
-  EXPECT_TRUE(s.verdicts.at("stable").failed()) << s.verdicts.at("stable").text();
-  EXPECT_EQ(s.verdicts.at("stable").value(), 0.0);
+  EXPECT_TRUE(s.stable.failed()) << s.stable.text();
+  EXPECT_EQ(s.stable.value(), 0.0);
   EXPECT_LT(*s.force_step_correlation, 0.0);
   EXPECT_LT(s.energy_balance_corrected.value, 0.5);
   std::size_t lines = 0;
@@ -152,9 +152,8 @@ TEST(Verdicts, FlagAnUnstableRun) {
 TEST(Verdicts, FlagAStatePointThatIsStillDrifting) {
   const Summary s = run(spec_of(scene("kind = \"constant_pressure\"\npressure = 1e-3\nxi_V = 1",
                                       0.45, 1e-3, 0.1, 0.0, 200.0)));
-  EXPECT_TRUE(s.verdicts.at("steady").failed());
-  EXPECT_EQ(s.verdicts.at("steady").why.rfind("phi drifts from", 0), 0u)
-      << s.verdicts.at("steady").why;
+  EXPECT_TRUE(s.steady.failed());
+  EXPECT_EQ(s.steady.why.rfind("phi drifts from", 0), 0u) << s.steady.why;
   EXPECT_GT(s.trend_t_phi, 4.0);
   EXPECT_TRUE(s.failed());
 }
@@ -174,18 +173,18 @@ TEST(Verdicts, NonFiniteValuesFailTheirVerdicts) {
   const Summary s = summarize(spec, series, &steps);
   EXPECT_TRUE(std::isnan(s.mu.value));
   EXPECT_TRUE(std::isinf(*s.J));
-  ASSERT_TRUE(s.verdicts.at("steady").failed());
-  const std::string steady = s.verdicts.at("steady").text();
+  ASSERT_TRUE(s.steady.failed());
+  const std::string steady = s.steady.text();
   EXPECT_EQ(steady.rfind("fail: ", 0), 0u) << steady;
   EXPECT_NE(steady.find("mu = "), std::string::npos) << steady;
   EXPECT_NE(steady.find("J = inf"), std::string::npos) << steady;
   EXPECT_NE(steady.find("not finite"), std::string::npos) << steady;
-  ASSERT_TRUE(s.verdicts.at("stable").failed());
-  const std::string stable = s.verdicts.at("stable").text();
+  ASSERT_TRUE(s.stable.failed());
+  const std::string stable = s.stable.text();
   EXPECT_EQ(stable.rfind("fail: energy balance = ", 0), 0u) << stable;
   EXPECT_NE(stable.find("not finite"), std::string::npos) << stable;
-  EXPECT_EQ(s.verdicts.at("steady").value(), 0.0);
-  EXPECT_EQ(s.verdicts.at("stable").value(), 0.0);
+  EXPECT_EQ(s.steady.value(), 0.0);
+  EXPECT_EQ(s.stable.value(), 0.0);
   EXPECT_TRUE(s.failed());
 
   // The same from a run: phi = 1e-9 has no contacts.
@@ -194,8 +193,8 @@ TEST(Verdicts, NonFiniteValuesFailTheirVerdicts) {
   const RunSpec dilute = spec_of(scene(kVolume, 0.6, 1e-3, 0.1, 0.0, 20.0), {"system.phi=1e-9"});
   const ReplicaResult r = run_replica(dilute, 1, opt);
   ASSERT_TRUE(r.status.is_complete()) << r.status.text();
-  EXPECT_TRUE(r.summary.verdicts.at("steady").failed()) << r.summary.verdicts.at("steady").text();
-  EXPECT_TRUE(r.summary.verdicts.at("stable").failed()) << r.summary.verdicts.at("stable").text();
+  EXPECT_TRUE(r.summary.steady.failed()) << r.summary.steady.text();
+  EXPECT_TRUE(r.summary.stable.failed()) << r.summary.stable.text();
 }
 
 // t_av = "auto" at gdot = 1e-2, N = 200: eta's relative block error falls below 2% within a few
@@ -209,7 +208,7 @@ TEST(AutoLength, TavReachesItsTargetOrStopsAtMaxTime) {
   EXPECT_EQ(a.texts.at("run_length").rfind("target reached: relative error of eta", 0), 0u)
       << a.texts.at("run_length");
   EXPECT_LE(a.eta->err / a.eta->value, 0.02);
-  EXPECT_TRUE(a.verdicts.at("decorrelated").passed()) << a.verdicts.at("decorrelated").text();
+  EXPECT_TRUE(a.decorrelated.passed()) << a.decorrelated.text();
   EXPECT_LT(*a.t_eq + *a.t_av, 20000.0);
   const RunSpec out_of_reach =
       spec_of(base, {"run.t_av=\"auto\"", "run.target_error=1e-4", "run.max_time=1500.0"});
@@ -237,7 +236,7 @@ TEST(AutoLength, TeqFindsTheEndOfTheStartUpTransient) {
   EXPECT_LT(*s.t_eq, 300.0);
   EXPECT_EQ(s.texts.at("t_eq_method").rfind("MSER-5", 0), 0u);
   EXPECT_GE(*s.t_av, 1500.0 - 1e-9);
-  EXPECT_TRUE(s.verdicts.at("steady").passed()) << s.verdicts.at("steady").text();
+  EXPECT_TRUE(s.steady.passed()) << s.steady.text();
 }
 
 std::string config_error(const std::string& text, const std::vector<std::string>& sets) {
