@@ -295,7 +295,7 @@ Summary read_summary(const H5Reader& r, const std::string& g) {
       if (Verdict* v = s.verdict(name.substr(8)))
         *v = Verdict::parse(r.attr_string(g, name));
     } else if (name == "run_length" || name == "t_eq_method") {
-      s.texts[name] = r.attr_string(g, name);
+      (name == "run_length" ? s.run_length : s.t_eq_method) = r.attr_string(g, name);
     } else {
       // The summary's numbers (Summary::set); the attributes that describe the run (N, alpha,
       // the ensemble's, the integrator's, the times) and the verdicts' values are not set.

@@ -465,8 +465,8 @@ ReplicaResult run_replica(const RunSpec& spec, std::uint64_t seed, const RunOpti
     res.summary = summarize(eff, res.series, steps);
     res.summary.t_eq = len.t_eq;
     res.summary.t_av = res.series.samples.back().time - len.t_eq;
-    res.summary.texts["run_length"] = len.why;
-    res.summary.texts["t_eq_method"] = len.method;
+    res.summary.run_length = len.why;
+    res.summary.t_eq_method = len.method;
     if (spec.auto_av && len.why.rfind("max_time", 0) == 0)
       res.summary.warnings.push_back("t_av = \"auto\": " + len.why);
   }

@@ -151,9 +151,9 @@ struct Summary {
   // (Verdict::value) are numbers of the summary under the same names (kVerdicts).
   Verdict steady, stable, decorrelated;
   std::vector<std::string> warnings;
-  // Texts: "run_length" (with t_av = "auto": whether the target or max_time ended the run),
-  // "t_eq_method".
-  std::map<std::string, std::string> texts;
+  // How the run's window was chosen (set by run_replica): whether the t_av = "auto" target or
+  // max_time ended the run, and how t_eq was found.
+  std::optional<std::string> run_length, t_eq_method;
   bool failed() const;  // any verdict failed
   // The verdict of that name in run files; nullptr if none has it.
   Verdict* verdict(std::string_view name);

@@ -248,8 +248,10 @@ Attributes summary_attributes(const RunSpec& spec, const ReplicaResult& r,
   if (src.summary.computed)
     for (const auto& [k, v] : kVerdicts)
       out.emplace_back("verdict_" + std::string(k), (src.summary.*v).text());
-  for (const auto& [k, v] : r.summary.texts)
-    out.emplace_back(k, v);
+  for (const auto& [k, v] :
+       {std::pair{"run_length", &r.summary.run_length}, {"t_eq_method", &r.summary.t_eq_method}})
+    if (*v)
+      out.emplace_back(k, **v);
   out.emplace_back("N", static_cast<std::int64_t>(r.final_state.size()));
   out.emplace_back("alpha", spec.alpha);
   spec.ensemble->describe(out);

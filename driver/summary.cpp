@@ -458,7 +458,7 @@ bool print_summary(const RunSpec& spec, const std::vector<ReplicaResult>& result
       std::printf("  %-14s = %s%.6g after t_eq = %.6g (%s)\n", "t_av",
                   count > 1 ? ("replica " + std::to_string(r) + ": ").c_str() : "",
                   t.t_av.value_or(Summary::kNaN), t.t_eq.value_or(Summary::kNaN),
-                  t.texts.at("run_length").c_str());
+                  t.run_length.value_or("").c_str());
     }
   }
   std::printf("  force passes   = %.6g force-pass equivalents%s\n", equivalents,

@@ -205,16 +205,16 @@ TEST(AutoLength, TavReachesItsTargetOrStopsAtMaxTime) {
   const RunSpec reach =
       spec_of(base, {"run.t_av=\"auto\"", "run.target_error=0.02", "run.max_time=20000.0"});
   const Summary a = run(reach);
-  EXPECT_EQ(a.texts.at("run_length").rfind("target reached: relative error of eta", 0), 0u)
-      << a.texts.at("run_length");
+  EXPECT_EQ(a.run_length.value_or("").rfind("target reached: relative error of eta", 0), 0u)
+      << a.run_length.value_or("");
   EXPECT_LE(a.eta->err / a.eta->value, 0.02);
   EXPECT_TRUE(a.decorrelated.passed()) << a.decorrelated.text();
   EXPECT_LT(*a.t_eq + *a.t_av, 20000.0);
   const RunSpec out_of_reach =
       spec_of(base, {"run.t_av=\"auto\"", "run.target_error=1e-4", "run.max_time=1500.0"});
   const Summary b = run(out_of_reach);
-  EXPECT_EQ(b.texts.at("run_length").rfind("max_time reached: relative error of eta", 0), 0u)
-      << b.texts.at("run_length");
+  EXPECT_EQ(b.run_length.value_or("").rfind("max_time reached: relative error of eta", 0), 0u)
+      << b.run_length.value_or("");
   EXPECT_DOUBLE_EQ(*b.t_eq + *b.t_av, 1500.0);
   bool warned = false;
   for (const auto& w : b.warnings)
@@ -234,7 +234,7 @@ TEST(AutoLength, TeqFindsTheEndOfTheStartUpTransient) {
   const Summary s = run(spec);
   EXPECT_GT(*s.t_eq, 10.0);
   EXPECT_LT(*s.t_eq, 300.0);
-  EXPECT_EQ(s.texts.at("t_eq_method").rfind("MSER-5", 0), 0u);
+  EXPECT_EQ(s.t_eq_method.value_or("").rfind("MSER-5", 0), 0u);
   EXPECT_GE(*s.t_av, 1500.0 - 1e-9);
   EXPECT_TRUE(s.steady.passed()) << s.steady.text();
 }
