@@ -27,6 +27,39 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// An integrator as the report names it: the kind and its step ("respa dt 0.5"), RKC by its
+// tolerance in units of delta = P. From the table's integrator column (what the point really
+// ran), or, in a table collected before that column existed, as the preset chooses it.
+std::string integrator_label(const Table& table, std::size_t r) {
+  const double pressure = table.number(r, "imposed_pressure");
+  const auto label = [&](const std::string& kind, double dt, double atol) {
+    if (kind == "cvode")
+      return kind;
+    if (kind == "rkc")
+      return kind + " atol=" + num(atol / pressure, 2) + " delta";
+    return kind + " dt " + num(dt, 2);
+  };
+  if (table.column("integrator") < 0) {
+    const IntegratorSettings ic =
+        integrator_for(std::int64_t(table.number(r, "N")), pressure).settings;
+    return label(ic.kind, ic.number("dt").value_or(0.0), ic.number("atol").value_or(0.0));
+  }
+  // The column joins key and value, keys sorted: "atol3e-06_kindrkc", "dt0.5_kindrespa".
+  const std::string t = table.text(r, "integrator");
+  const auto value = [&](const std::string& key) {
+    std::size_t at = 0;
+    while ((at = t.find(key, at)) != std::string::npos && at > 0 && t[at - 1] != '_')
+      ++at;
+    return at == std::string::npos ? std::nan("")
+                                   : std::strtod(t.c_str() + at + key.size(), nullptr);
+  };
+  for (const char* kind : {"cvode", "rkc", "respa", "euler"}) {
+    if (t.find(std::string("kind") + kind) != std::string::npos)
+      return label(kind, value("dt"), value("atol"));
+  }
+  return t;
+}
+
 // What the points cost, measured: CPU time (each replica ran on one thread) per integrator, per
 // particle force-pass equivalent and per particle and tau_0, and what the paper preset would
 // need at the measured rate. A table collected before CPU time and force-pass equivalents were
@@ -36,34 +69,6 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
     int points = 0;
     double seconds = 0.0, particle_evaluations = 0.0, particle_time = 0.0;
     double estimated_seconds = 0.0;  // the sweep's estimate (sweep::estimate_cost) of them
-  };
-  // Integrator label of a point as the preset chooses it (for the paper preset's points)...
-  const auto label = [](std::int64_t n, double p) {
-    const IntegratorSettings ic = integrator_for(n, p).settings;
-    if (ic.kind == "cvode")
-      return std::string("cvode");
-    if (ic.kind == "rkc")
-      return std::string("rkc atol=0.1 delta");
-    return ic.kind + " dt " + num(ic.number("dt").value_or(0.0), 2);
-  };
-  // ...and as the table records it (what the points really ran), in the same words.
-  const auto table_label = [&](std::size_t r) {
-    if (table.column("integrator") < 0)
-      return label(std::int64_t(table.number(r, "N")), table.number(r, "imposed_pressure"));
-    const std::string t = table.text(r, "integrator");
-    for (const char* kind : {"cvode", "rkc", "respa", "euler"}) {
-      if (t.find(std::string("kind") + kind) == std::string::npos)
-        continue;
-      if (std::string(kind) == "cvode")
-        return std::string("cvode");
-      if (std::string(kind) == "rkc")
-        return std::string("rkc atol=0.1 delta");
-      const auto dt = t.find("dt");
-      return std::string(kind) + " dt " +
-             (dt == std::string::npos ? std::string("?")
-                                      : t.substr(dt + 2, t.find('_', dt) - dt - 2));
-    }
-    return t;
   };
   std::map<std::string, double> estimated_per_point;  // point name -> estimated CPU seconds
   for (const auto& t : run.plan.tasks())              // Task::cost is in CPU seconds
@@ -85,7 +90,7 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
     from_wall += !has_cpu || table.number(r, "cpu_from_wall") > 0.5 ? 1 : 0;
     const double reps = std::max(1.0, table.number(r, "replicas"));
     const double t = table.number(r, "run.t_eq") + table.number(r, "run.t_av");
-    for (Cost* c : {&by_kind[table_label(r)], &all}) {
+    for (Cost* c : {&by_kind[integrator_label(table, r)], &all}) {
       ++c->points;
       c->estimated_seconds += estimated_per_point[table.text(r, "point")];
       c->seconds += wall;
@@ -146,10 +151,12 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
   md << "\nThe most expensive point: " << slowest << ", " << num(slowest_seconds, 3)
      << " CPU seconds over its replicas. The cost model (each integrator's measured CPU time "
         "per particle and tau_0) estimates "
-     << num(run.cpu_hours_estimate, 3) << " CPU-hours for these points";
+     << num(run.cpu_hours_estimate, 3) << " CPU-hours for the sweep's " << run.plan.points.size()
+     << " points";
   if (all.estimated_seconds > 0.0 && all.seconds > 0.0)
-    md << "; the finished points took " << num(all.seconds / all.estimated_seconds, 2)
-       << " times their estimate";
+    md << "; the " << all.points << " finished points took "
+       << num(all.seconds / all.estimated_seconds, 2) << " times their estimate ("
+       << num(all.estimated_seconds / 3600.0, 3) << " CPU-hours)";
   md << ".\n";
   try {
     const GridPreset paper =
@@ -246,7 +253,7 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
       reps.insert(table.number(r, "replicas"));
       jmin = std::min(jmin, table.number(r, "J"));
       jmax = std::max(jmax, table.number(r, "J"));
-      ++integrators[table.column("integrator") >= 0 ? table.text(r, "integrator") : "?"];
+      ++integrators[integrator_label(table, r)];
     }
     auto list = [](const auto& xs) {
       std::string t;
@@ -256,9 +263,9 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
     };
     md << "Constant pressure, harmonic spheres (alpha_r = 2). The table: N = " << list(ns)
        << "; P = " << list(ps) << "; J from " << num(jmin, 3) << " to " << num(jmax, 3)
-       << "; replicas per point: " << list(reps) << "; integrators (table column, points):";
+       << "; replicas per point: " << list(reps) << "; integrators (points):";
     for (const auto& [kind, count] : integrators)
-      md << " " << kind << " (" << count << ")";
+      md << (kind == integrators.begin()->first ? " " : ", ") << kind << " (" << count << ")";
     md << ". Run lengths per point: table.csv (run.t_eq, run.t_av).\n\n";
     // What the errors the fits use are made of, as the analysis read them.
     if (result.is_object() && result.contains("point_errors"))

@@ -162,6 +162,32 @@ TEST(ReportsFromJson, HardSpherePhiJChangesTheReport) {
   expect_phi_j_drives_the_verdict("hard-sphere", in, result, "1000");
 }
 
+// The integrators the header and the cost table name are those of the table's integrator column,
+// RKC by its tolerance in units of delta = P: a row that ran at ten times the tolerance is named
+// apart, and counted apart.
+TEST(ReportsFromJson, IntegratorNamesComeFromTheTable) {
+  GridInputs in;
+  load_grid(in, "hard-sphere");
+  const int col = in.table.column("integrator");
+  ASSERT_GE(col, 0);
+  const std::size_t rows = in.table.rows.size();
+  ASSERT_GE(rows, 2u);
+  const std::string all = "rkc atol=0.1 delta (" + std::to_string(rows) + ")";
+  EXPECT_NE(grid_report("hard-sphere", in, in.result).find(all), std::string::npos);
+
+  const double p = in.table.number(0, "imposed_pressure");
+  in.table.rows[0][std::size_t(col)] = "atol" + num(p, 6) + "_kindrkc";
+  in.table.rows[1][std::size_t(col)] = "dt0.5_kindrespa";
+  const std::string changed = grid_report("hard-sphere", in, in.result);
+  const std::string header = line_starting(changed, "Constant pressure");
+  EXPECT_NE(header.find("rkc atol=1 delta (1)"), std::string::npos) << header;
+  EXPECT_NE(header.find("respa dt 0.5 (1)"), std::string::npos) << header;
+  EXPECT_NE(header.find("rkc atol=0.1 delta (" + std::to_string(rows - 2) + ")"),
+            std::string::npos)
+      << header;
+  EXPECT_NE(line_starting(changed, "| rkc atol=1 delta | 1 |"), "") << changed;
+}
+
 // The asymptotic viscosity exponent's verdict against the seed carries the systematic error the
 // JSON gives it: the same value is a disagreement with statistical errors alone and not with a
 // systematic ten times larger.
