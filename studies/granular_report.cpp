@@ -27,39 +27,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// An integrator as the report names it: the kind and its step ("respa dt 0.5"), RKC by its
-// tolerance in units of delta = P. From the table's integrator column (what the point really
-// ran), or, in a table collected before that column existed, as the preset chooses it.
-std::string integrator_label(const Table& table, std::size_t r) {
-  const double pressure = table.number(r, "imposed_pressure");
-  const auto label = [&](const std::string& kind, double dt, double atol) {
-    if (kind == "cvode")
-      return kind;
-    if (kind == "rkc")
-      return kind + " atol=" + num(atol / pressure, 2) + " delta";
-    return kind + " dt " + num(dt, 2);
-  };
-  if (table.column("integrator") < 0) {
-    const IntegratorSettings ic =
-        integrator_for(std::int64_t(table.number(r, "N")), pressure).settings;
-    return label(ic.kind, ic.number("dt").value_or(0.0), ic.number("atol").value_or(0.0));
-  }
-  // The column joins key and value, keys sorted: "atol3e-06_kindrkc", "dt0.5_kindrespa".
-  const std::string t = table.text(r, "integrator");
-  const auto value = [&](const std::string& key) {
-    std::size_t at = 0;
-    while ((at = t.find(key, at)) != std::string::npos && at > 0 && t[at - 1] != '_')
-      ++at;
-    return at == std::string::npos ? std::nan("")
-                                   : std::strtod(t.c_str() + at + key.size(), nullptr);
-  };
-  for (const char* kind : {"cvode", "rkc", "respa", "euler"}) {
-    if (t.find(std::string("kind") + kind) != std::string::npos)
-      return label(kind, value("dt"), value("atol"));
-  }
-  return t;
-}
-
 // What the points cost, measured: CPU time (each replica ran on one thread) per integrator, per
 // particle force-pass equivalent and per particle and tau_0, and what the paper preset would
 // need at the measured rate. A table collected before CPU time and force-pass equivalents were
@@ -245,7 +212,6 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
     // that table, not the current preset).
     std::set<std::int64_t> ns;
     std::set<double> ps, reps;
-    std::map<std::string, int> integrators;
     double jmin = 1e300, jmax = 0.0;
     for (std::size_t r = 0; r < table.rows.size(); ++r) {
       ns.insert(std::int64_t(table.number(r, "N")));
@@ -253,7 +219,6 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
       reps.insert(table.number(r, "replicas"));
       jmin = std::min(jmin, table.number(r, "J"));
       jmax = std::max(jmax, table.number(r, "J"));
-      ++integrators[integrator_label(table, r)];
     }
     auto list = [](const auto& xs) {
       std::string t;
@@ -263,10 +228,9 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
     };
     md << "Constant pressure, harmonic spheres (alpha_r = 2). The table: N = " << list(ns)
        << "; P = " << list(ps) << "; J from " << num(jmin, 3) << " to " << num(jmax, 3)
-       << "; replicas per point: " << list(reps) << "; integrators (points):";
-    for (const auto& [kind, count] : integrators)
-      md << (kind == integrators.begin()->first ? " " : ", ") << kind << " (" << count << ")";
-    md << ". Run lengths per point: table.csv (run.t_eq, run.t_av).\n\n";
+       << "; replicas per point: " << list(reps)
+       << "; integrators (points): " << integrators_line(table)
+       << ". Run lengths per point: table.csv (run.t_eq, run.t_av).\n\n";
     // What the errors the fits use are made of, as the analysis read them.
     if (result.is_object() && result.contains("point_errors"))
       md << result.at("point_errors").at("description").as_string() << "\n\n";

@@ -171,14 +171,8 @@ std::string olsson_teitel::report_markdown(const VolumePreset& preset, const Swe
   md << "# olsson-teitel study, preset `" << preset.name << "`\n\n";
   {
     // What the table holds, from the table: the integrators the points ran with.
-    std::map<std::string, int> integrators;
-    for (std::size_t r = 0; r < table.rows.size(); ++r)
-      ++integrators[table.column("integrator") >= 0 ? table.text(r, "integrator") : "?"];
     md << "Constant volume, harmonic spheres (alpha_r = 2), " << preset.why
-       << ". Integrators (the table's integrator column, points):";
-    for (const auto& [kind, count] : integrators)
-      md << " " << kind << " (" << count << ")";
-    md << ".\n\n";
+       << ". Integrators (points): " << integrators_line(table) << ".\n\n";
   }
   md << "- Points: " << run.plan.points.size() << " x " << run.plan.replicas << " replicas, "
      << run.finished << " finished in every replica (table.csv).\n";
