@@ -507,12 +507,24 @@ double Cvode::force_passes_per_time(const Ensemble& /*ensemble*/) const {
 // timestep study's standard runs 57 (P = 1e-5, J = 0.3) and 316 us (P = 1e-3, J = 0.1) at
 // rtol 1e-4, 2x more at J = 1, and 1.9-4.4x more at rtol 1e-6: about
 // P^0.35 rtol^-0.2 max(1, J / 0.1)^0.3, within a factor of 2 of every one of those runs.
+// Below alpha_r = 2 a contact's stiffness, (alpha_r - 1) delta^(alpha_r - 2), grows without
+// bound as the overlap delta shrinks, and CVODE's cost with it: the softness study's standard
+// comparisons (N = 250, studies/softness/results/standard/alpha=*/table.csv, cpu_per_particle_tau)
+// cost 88-95x the harmonic model at alpha_r = 1.5, delta = 1e-4 (stiffness factor
+// delta^(alpha_r - 2) = 100), 14-22x at delta = 0.03 (5.8), 5.9-6.8x at alpha_r = 1.75, delta =
+// 1e-4 (10) and 4.7-6.4x at delta = 0.03 (2.4); the stability study's alpha_r = 1.5 case (N =
+// 500, P = 1e-3: delta = 1e-6, factor 1000) 2.1-3.6e3x. The factor itself is within 0.6-3.8x of
+// all of them, so it multiplies the model, up to the largest measured (1e3): stiffer contacts
+// (alpha_r = 1.2 at P = 1e-3 has delta = 1e-15) are not extrapolated, since such runs stop by
+// their budget ([run] max_force_evaluations) or fail. Above alpha_r = 2 (softer contacts) the
+// harmonic model is kept, an overestimate by up to 4x at alpha_r = 2.5 and 3 in those runs.
 double Cvode::cpu_seconds_per_particle_time(const Ensemble& /*ensemble*/,
                                             const CostPoint& at) const {
   const double p = std::clamp(at.pressure, 1e-7, 1e-1);
   const double j = std::max(1.0, at.viscous_number() / 0.1);
+  const double stiffness = contact_stiffness_factor(p, at.alpha);
   return 54e-9 * std::pow(p / 1e-5, 0.35) * std::pow(options().rtol / 1e-4, -0.2) *
-         std::pow(j, 0.3);
+         std::pow(j, 0.3) * stiffness;
 }
 
 // Costs against one force pass (a right-hand side: 24-30 us), measured with

@@ -27,6 +27,12 @@ double typical_overlap(double pressure, double alpha) {
   return std::clamp(delta, 1e-9, 1.0);
 }
 
+double contact_stiffness_factor(double pressure, double alpha) {
+  if (!(alpha < 2.0))
+    return 1.0;
+  return std::min(std::pow(typical_overlap(pressure, alpha), alpha - 2.0), 1e3);
+}
+
 CellRates StateEquation::cell_rates(double p_hat) const {
   CellRates r;
   r.strain = ensemble_.shear_rate();

@@ -56,6 +56,11 @@ namespace jamflow {
 // the length scale of the adaptive integrators' default tolerances.
 double typical_overlap(double pressure, double alpha);
 
+// How much stiffer a contact at the typical overlap is than a harmonic one, delta^(alpha_r - 2)
+// below alpha_r = 2 (1 above it), at most 1e3, the largest the adaptive integrators' cost
+// models were measured at (cvode.cpp): what those models multiply their harmonic cost by.
+double contact_stiffness_factor(double pressure, double alpha);
+
 // The piston shrank the cell below what the neighbour list supports. Only the piston moves V,
 // and a cell this small stays too small for every smaller step, so a solver must not retry
 // with a smaller step: unrecoverable, unlike its base.

@@ -332,6 +332,13 @@ double Rkc::force_passes_per_time(const Ensemble& /*ensemble*/) const {
 // 0.01 at P = 1e-4, and the hard-sphere standard runs took 4.5 ns at P = 1e-5, J = 3e-4
 // (3,015 and 2,933 CPU-s for t = 6.66e8) against 13.9 ns at J = 0.1: about (J / 0.1)^0.2,
 // which this model takes in full from atol <= 0.1 delta and not at atol >= delta.
+// Below alpha_r = 2 the contacts stiffen as delta^(alpha_r - 2) (cvode.cpp), and RKC's stages
+// with them: the softness study's standard comparisons (N = 250, atol = 0.01-1 delta) cost
+// 52-60x the harmonic model at alpha_r = 1.5, delta = 1e-4 (factor 100), 20-45x at delta = 0.03
+// (5.8), 9.6-11x at alpha_r = 1.75, delta = 1e-4 (10) and 6.8-15x at delta = 0.03 (2.4). With
+// the factor to the power 0.75 the model is still 1.7-1.9x below them at delta = 1e-4 and
+// 3.5-12x below at delta = 0.03 (P = 0.07-0.17: high pressure, where at alpha_r = 2 too, P =
+// 0.03, the runs cost 2.4-6.7x the model).
 double Rkc::cpu_seconds_per_particle_time(const Ensemble& /*ensemble*/, const CostPoint& at) const {
   const double p = std::clamp(at.pressure, 1e-7, 1e-1);
   const double delta = typical_overlap(p, at.alpha);
@@ -339,8 +346,9 @@ double Rkc::cpu_seconds_per_particle_time(const Ensemble& /*ensemble*/, const Co
   const double tolerance = std::clamp(atol / delta, 1e-4, 1e2);
   const double j = std::clamp(at.viscous_number() / 0.1, 1e-6, 1e6);
   const double slow = 0.2 * std::clamp(-std::log10(tolerance), 0.0, 1.0);  // exponent below 0.1
+  const double stiffness = contact_stiffness_factor(p, at.alpha);
   return 7.7e-9 * std::pow(p / 1e-5, 0.21) * std::pow(tolerance, -0.26) *
-         (j >= 1.0 ? std::pow(j, 0.4) : std::pow(j, slow));
+         (j >= 1.0 ? std::pow(j, 0.4) : std::pow(j, slow)) * std::pow(stiffness, 0.75);
 }
 
 std::vector<std::pair<std::string, double>> Rkc::statistics() const {

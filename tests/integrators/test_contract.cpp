@@ -501,6 +501,42 @@ TEST_P(Contract, NegativeVolumeLeavesOnlyPartialFile) {
   fs::remove_all(dir);
 }
 
+// The adaptive integrators' dry-run cost grows with the contact stiffness below alpha_r = 2,
+// (alpha_r - 1) delta^(alpha_r - 2) at the typical overlap delta = P^(1 / (alpha_r - 1)): more at
+// alpha_r = 1.5 than at 2 by more than 10x where delta = 1e-6 (P = 1e-3), and more the smaller
+// the overlap (the measured points are in cvode.cpp and rkc.cpp).
+TEST(CostEstimate, AdaptiveCostGrowsWithContactStiffnessBelowHarmonic) {
+  const ConstantPressure ens(0.1, 1e-3, 5e-4);
+  int adaptive = 0;
+  for (const std::string& kind : integrator_kinds()) {
+    // Each kind at its defaults (RKC's atol in units of delta); one that needs a step is a
+    // fixed-step integrator, whose cost is the same at every alpha_r.
+    const Scene scene = Scene::parse("[integrator]\nkind = \"" + kind + "\"\n", "cost.toml");
+    ConfigSection sec = scene.section("integrator");
+    std::unique_ptr<Integrator> integ;
+    try {
+      integ = make_integrator(sec);
+    } catch (const ConfigError&) {
+      continue;
+    }
+    if (!std::isnan(integ->force_passes_per_time(ens)))
+      continue;
+    ++adaptive;
+    const auto cost = [&](double alpha, double pressure) {
+      Integrator::CostPoint at;
+      at.alpha = alpha;
+      at.pressure = pressure;
+      at.shear_rate = 0.1 * pressure;
+      return integ->cpu_seconds_per_particle_time(ens, at);
+    };
+    EXPECT_GT(cost(1.5, 1e-3), 10.0 * cost(2.0, 1e-3)) << kind;
+    EXPECT_GT(cost(1.5, 1e-3) / cost(2.0, 1e-3), cost(1.5, 1e-1) / cost(2.0, 1e-1)) << kind;
+    EXPECT_GT(cost(1.75, 1e-3), cost(2.0, 1e-3)) << kind;
+    EXPECT_LT(cost(1.75, 1e-3), cost(1.5, 1e-3)) << kind;
+  }
+  EXPECT_GE(adaptive, 2);  // CVODE and RKC
+}
+
 INSTANTIATE_TEST_SUITE_P(AllIntegratorsAllEnsembles, Contract, ::testing::ValuesIn(all_cases()),
                          case_name);
 
