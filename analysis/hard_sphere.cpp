@@ -589,6 +589,15 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
       fo.scale_errors_by_chi2 = options.scale_errors;
       fo.label = name + "(N) = " + name + "_inf + A N^-alpha";
       Extrapolation ex = extrapolate_in_size(name, ns, vs, es, fo);
+      for (const auto& s : r.sizes) {
+        const ErrorModel& em = name.find("phi") != std::string::npos ? s.phi_errors : s.mu_errors;
+        for (const auto& pe : em.parameters) {
+          const double sys = pe.systematic();
+          if (pe.name == name && std::isfinite(sys) &&
+              !(std::isfinite(ex.systematic) && ex.systematic >= sys))
+            ex.systematic = sys;
+        }
+      }
       if (ex.status == Extrapolation::Status::kFit) {
         const Measured a = ex.fit->at(1);
         const double z = std::fabs(a.value) / a.error;
@@ -648,7 +657,7 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
   // resolved extrapolation of O_J; b a resolved one, or else a size-independent b (status
   // constant: its weighted mean, stated in a warning).
   auto nu_from = [&](const std::string& b_name, const std::string& o_name,
-                     std::optional<Measured>& out) {
+                     std::optional<Measured>& out, double& out_systematic) {
     const Extrapolation* o = find(o_name);
     if (!o) {
       r.warnings.push_back("nu from " + o_name + " not determined: the extrapolation of " + o_name +
@@ -674,12 +683,13 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
     try {
       out = propagate([d](std::span<const double> q) { return q[0] / (q[1] * d); }, p, cov,
                       "nu = " + b_name + " / (alpha_" + o_name + " d)");
+      out_systematic = std::fabs(out->value) * b->systematic / std::fabs(b->inf.value);
     } catch (const AnalysisError& e) {
       r.failures.push_back(e.what());
     }
   };
-  nu_from("b_phi", "phi_J", r.nu_phi);
-  nu_from("b_mu", "mu_J", r.nu_mu);
+  nu_from("b_phi", "phi_J", r.nu_phi, r.nu_phi_systematic);
+  nu_from("b_mu", "mu_J", r.nu_mu, r.nu_mu_systematic);
 
   // The finite-size collapse (Fig. 6), from the N -> infinity fits of O_J and b.
   auto collapse = [&](const std::string& o_name, const std::string& b_name,
@@ -749,6 +759,7 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
       const Extrapolation* ex = find(name);
       params.push_back(ex->inf.value);
       blocks.push_back({ex->inf.error * ex->inf.error});
+      systematic.push_back(ex->systematic);
     }
     cov = block_diagonal(blocks, {1, 1, 1, 1, 1, 1});
     source = "N -> infinity";

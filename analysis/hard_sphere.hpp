@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <optional>
 #include <string>
@@ -140,6 +141,11 @@ struct Extrapolation {
   // sizes. Only a resolved O_inf is an N -> infinity value; `resolution` says why (not).
   bool resolved = false;
   std::string resolution;
+  // The systematic error of O_inf: the largest of the sizes' systematic errors of O (J window
+  // and fit form, ErrorModel). The same choices are made at every size, so their shifts are
+  // taken as common to all sizes, which moves O_inf by as much and leaves A_O and alpha_O; NaN
+  // where no size has one.
+  double systematic = std::numeric_limits<double>::quiet_NaN();
 };
 
 // Exposed for tests: sizes, values and errors of one parameter.
@@ -206,6 +212,10 @@ struct HardSphereResult {
   std::vector<Extrapolation> extrapolations;  // empty when skipped
   std::string extrapolation_skipped;          // reason, when skipped
   std::optional<Measured> nu_phi, nu_mu;
+  // Their systematic errors, from that of b_inf (Extrapolation::systematic; a shift common to
+  // every size leaves alpha_O as it is); NaN where b_inf has none.
+  double nu_phi_systematic = std::numeric_limits<double>::quiet_NaN();
+  double nu_mu_systematic = std::numeric_limits<double>::quiet_NaN();
   std::optional<ViscosityLaw> viscosity;
   std::vector<std::string> warnings;
   std::vector<std::string> failures;  // parts that could not be computed

@@ -362,16 +362,22 @@ Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
         je["failed"] = e.message;
         break;
     }
+    if (je.contains("inf"))
+      je["inf"]["systematic"] = number_or_null(e.systematic);
     je["resolved"] = e.resolved;
     je["resolution"] = e.resolution;
     ex[e.parameter] = je;
   }
   j["extrapolated"] = ex;
   Json nu = Json::object();
-  if (r.nu_phi)
+  if (r.nu_phi) {
     nu["from_phi"] = measured_json(*r.nu_phi);
-  if (r.nu_mu)
+    nu["from_phi"]["systematic"] = number_or_null(r.nu_phi_systematic);
+  }
+  if (r.nu_mu) {
     nu["from_mu"] = measured_json(*r.nu_mu);
+    nu["from_mu"]["systematic"] = number_or_null(r.nu_mu_systematic);
+  }
   nu["dimension"] = o.dimension;
   nu["formula"] = "nu = b_inf / (alpha_O d), O = phi_J (from_phi) or mu_J (from_mu)";
   j["nu"] = nu;
@@ -443,9 +449,15 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
            << fmt(t.inf) << " | | | " << fmt(t.a) << " | | " << fmt(t.alpha) << " | |\n";
         continue;
       }
-      // Only a resolved extrapolation is an N -> infinity value to compare in sigma.
-      md << "| " << e.parameter << " | " << format_measured(e.inf) << " | " << fmt(t.inf) << " | "
-         << (e.resolved ? pull_md(e.inf.value, e.inf.error, t.inf) : std::string("not resolved"))
+      // Only a resolved extrapolation is an N -> infinity value to compare in sigma, with its
+      // statistical and systematic errors in quadrature.
+      const bool has_sys = std::isfinite(e.systematic);
+      md << "| " << e.parameter << " | " << format_measured(e.inf)
+         << (has_sys ? " ± " + fmt(e.systematic, "%.2g") + " (sys)" : std::string()) << " | "
+         << fmt(t.inf) << " | "
+         << (e.resolved ? pull_md(e.inf.value,
+                                  std::hypot(e.inf.error, has_sys ? e.systematic : 0.0), t.inf)
+                        : std::string("not resolved"))
          << " | ";
       if (e.status == Extrapolation::Status::kFit) {
         md << format_measured(e.fit->at(1)) << " | " << fmt(t.a) << " | "
@@ -459,8 +471,10 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
            << fmt(t.alpha) << " | " << fmt(e.chi2 / std::max(e.dof, 1), "%.2f") << " |\n";
       }
     }
-    md << "\n(pull = (ours - paper)/our error, only for a resolved extrapolation: a power-law "
-          "fit whose A_O differs from 0 by more than "
+    md << "\n(O_inf's systematic error (sys) is the largest of the sizes' (J window and fit "
+          "form): the same choices at every size shift them alike, and O_inf by as much. pull = "
+          "(ours - paper)/our error, statistical and systematic in quadrature, only for a resolved "
+          "extrapolation: a power-law fit whose A_O differs from 0 by more than "
        << fmt(o.resolved_amplitude_sigma)
        << " sigma. A_O 'not resolved': chi2 keeps decreasing as "
           "alpha grows, only the smallest size deviates; O_inf then has a profile-likelihood "
@@ -470,10 +484,15 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
   }
   md << "## Correlation-length exponent nu = b / (alpha_O d), d = " << o.dimension << "\n\n";
   md << "| from | nu | paper |\n|---|---|---|\n";
-  md << "| phi | " << (r.nu_phi ? format_measured(*r.nu_phi) : "n/a") << " | " << fmt(seed::kNuPhi)
-     << " |\n";
-  md << "| mu | " << (r.nu_mu ? format_measured(*r.nu_mu) : "n/a") << " | " << fmt(seed::kNuMu)
-     << " |\n\n";
+  const auto nu_md = [](const std::optional<Measured>& nu, double sys) {
+    if (!nu)
+      return std::string("n/a");
+    return format_measured(*nu) +
+           (std::isfinite(sys) ? " ± " + fmt(sys, "%.2g") + " (sys)" : std::string());
+  };
+  md << "| phi | " << nu_md(r.nu_phi, r.nu_phi_systematic) << " | " << fmt(seed::kNuPhi) << " |\n";
+  md << "| mu | " << nu_md(r.nu_mu, r.nu_mu_systematic) << " | " << fmt(seed::kNuMu)
+     << " |\n\n(systematic: that of b_inf; a shift common to every size leaves alpha_O.)\n\n";
   md << "## Finite-size collapse (Fig. 6)\n\n";
   md << "y = (O(J, N) - O_inf) / (A_O N^-alpha_O) against x = J N^(alpha_O/b), from the "
         "N -> infinity fits above. Quality: Houdayer-Hartmann S over the sizes as curves "

@@ -11,6 +11,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "analysis/analyze_cli.hpp"
 #include "analysis/json.hpp"
@@ -429,7 +430,10 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
         double v = 0.0, e = 0.0;
         if (ok && measured(pe, "inf", v, e)) {
           ++resolved;
-          rows.push_back({p, pm(v, e), num(law.inf, 4), sigma_text(v, e, law.inf), why});
+          const double sys = systematic_of(pe, "inf");
+          rows.push_back({p, with_systematic(v, e, sys), num(law.inf, 4),
+                          sigma_text(v, std::hypot(e, std::isfinite(sys) ? sys : 0.0), law.inf),
+                          why});
         } else {
           rows.push_back({p, "-", num(law.inf, 4), "-", why});
         }
@@ -449,14 +453,15 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
     double v = 0.0, e = 0.0;
     md << "\nnu = b / (alpha_O d): ";
     bool any = false;
-    if (measured(nu, "from_phi", v, e)) {
-      md << "from phi " << pm(v, e) << " (seed " << num(seed::kNuPhi, 3) << ", "
-         << sigma_text(v, e, seed::kNuPhi) << ")";
-      any = true;
-    }
-    if (measured(nu, "from_mu", v, e)) {
-      md << (any ? "; " : "") << "from mu " << pm(v, e) << " (seed " << num(seed::kNuMu, 3) << ", "
-         << sigma_text(v, e, seed::kNuMu) << ")";
+    for (const auto& [key, label, paper] :
+         {std::tuple<const char*, const char*, double>{"from_phi", "from phi", seed::kNuPhi},
+          {"from_mu", "from mu", seed::kNuMu}}) {
+      if (!measured(nu, key, v, e))
+        continue;
+      const double sys = systematic_of(nu, key);
+      md << (any ? "; " : "") << label << " " << with_systematic(v, e, sys) << " (seed "
+         << num(paper, 3) << ", "
+         << sigma_text(v, std::hypot(e, std::isfinite(sys) ? sys : 0.0), paper) << ")";
       any = true;
     }
     if (!any)

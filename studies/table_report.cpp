@@ -142,6 +142,18 @@ bool measured(const analysis::Json& j, const std::string& key, double& v, double
   return true;
 }
 
+double systematic_of(const analysis::Json& j, const std::string& key) {
+  if (!j.is_object() || !j.contains(key) || !j.at(key).is_object())
+    return std::nan("");
+  const auto& m = j.at(key);
+  return m.contains("systematic") && m.at("systematic").is_number() ? m.at("systematic").as_number()
+                                                                    : std::nan("");
+}
+
+std::string with_systematic(double v, double e, double sys) {
+  return pm(v, e) + (std::isfinite(sys) ? " ± " + num(sys, 2) + " (systematic)" : "");
+}
+
 std::string sigma_text(double ours, double err, double seed) {
   if (!(err > 0.0) || !std::isfinite(ours))
     return "n/a";

@@ -45,6 +45,11 @@ analysis::Json read_analysis(const std::string& study, const std::string& json_p
 // value and error of a {"value", "error"} member; false if absent.
 bool measured(const analysis::Json& j, const std::string& key, double& v, double& e);
 
+// The "systematic" of a {"value", "error", "systematic"} member; NaN if absent or null.
+double systematic_of(const analysis::Json& j, const std::string& key);
+// "v ± e", and " ± sys (systematic)" where sys is finite.
+std::string with_systematic(double v, double e, double sys);
+
 // "+1.2 sigma" (with "(disagrees)" beyond 2), or "n/a" without an error.
 std::string sigma_text(double ours, double err, double seed);
 

@@ -138,10 +138,9 @@ std::string table2_section(const fs::path& analysis) {
     if (ok && e.contains("inf") && e.at("inf").contains("value")) {
       ++resolved;
       const double v = e.at("inf").at("value").as_number(),
-                   err = e.at("inf").at("error").as_number();
-      char z[64];
-      std::snprintf(z, sizeof z, "%+.1f sigma", (v - s.inf) / err);
-      rows.push_back({name, pm(v, err), num(s.inf, 4), err > 0.0 ? z : "n/a", why});
+                   err = e.at("inf").at("error").as_number(), sys = systematic_of(e, "inf");
+      rows.push_back({name, with_systematic(v, err, sys), num(s.inf, 4),
+                      sigma_text(v, std::hypot(err, std::isfinite(sys) ? sys : 0.0), s.inf), why});
     } else {
       rows.push_back({name, "-", num(s.inf, 4), "-", why});
     }

@@ -191,6 +191,23 @@ TEST(HardSphere, FullAnalysisRecoversTable2AndNu) {
   }();
   expect_within(*r.nu_phi, 0.391 / (0.852 * 3), 5, "nu from phi");
   expect_within(*r.nu_mu, 0.346 / (0.626 * 3), 5, "nu from mu");
+  // The systematic error of each O_inf is the largest of the sizes' (J window, fit form), and
+  // nu's is b_inf's relative one.
+  for (const Extrapolation& e : r.extrapolations) {
+    double largest = 0.0;
+    for (const SizeFit& s : r.sizes) {
+      const ErrorModel& em =
+          e.parameter.find("phi") != std::string::npos ? s.phi_errors : s.mu_errors;
+      const double sys = em[e.parameter].systematic();
+      if (std::isfinite(sys))
+        largest = std::max(largest, sys);
+    }
+    EXPECT_GT(largest, 0.0) << e.parameter;
+    EXPECT_DOUBLE_EQ(e.systematic, largest) << e.parameter;
+  }
+  const Extrapolation& b_phi = r.extrapolations[1];
+  EXPECT_NEAR(r.nu_phi_systematic, r.nu_phi->value * b_phi.systematic / b_phi.inf.value,
+              1e-12 * r.nu_phi->value);
   ASSERT_TRUE(r.viscosity.has_value());
   // N -> infinity parameters only when all six extrapolations are resolved, else the largest N.
   bool all_resolved = true;

@@ -162,6 +162,40 @@ TEST(ReportsFromJson, HardSpherePhiJChangesTheReport) {
   expect_phi_j_drives_the_verdict("hard-sphere", in, result, "1000");
 }
 
+// A resolved N -> infinity value is compared with the seed's with its systematic error: ten
+// statistical errors from the seed is a disagreement alone, and 1.0 sigma with a systematic of
+// ten (10 / sqrt(101)).
+TEST(ReportsFromJson, FiniteSizeInfinityVerdictCarriesItsSystematic) {
+  GridInputs in;
+  load_grid(in, "finite-size");
+  const double paper = seed::table2("phi_J").inf;
+  const double e = 0.001;
+  const auto report_with = [&](double sys) {
+    Json result = in.result;
+    Json ex = Json::object();
+    Json pe = Json::object();
+    Json inf = Json::object();
+    inf["value"] = paper + 10.0 * e;
+    inf["error"] = e;
+    inf["systematic"] = sys;
+    pe["status"] = "fit";
+    pe["inf"] = inf;
+    pe["resolved"] = true;
+    pe["resolution"] = "resolved";
+    ex["phi_J"] = pe;
+    result["extrapolated"] = ex;
+    return line_starting(grid_report("finite-size", in, result),
+                         "| phi_J | " + pm(paper + 10.0 * e, e));
+  };
+  const std::string small = report_with(0.0);
+  const std::string large = report_with(10.0 * e);
+  ASSERT_FALSE(small.empty());
+  EXPECT_NE(small.find("+10.0 sigma (disagrees)"), std::string::npos) << small;
+  EXPECT_NE(large.find("± 0.01 (systematic)"), std::string::npos) << large;
+  EXPECT_NE(large.find("+1.0 sigma"), std::string::npos) << large;
+  EXPECT_EQ(large.find("disagrees"), std::string::npos) << large;
+}
+
 // The integrators the header and the cost table name are those of the table's integrator column,
 // RKC by its tolerance in units of delta = P: a row that ran at ten times the tolerance is named
 // apart, and counted apart.
@@ -182,8 +216,7 @@ TEST(ReportsFromJson, IntegratorNamesComeFromTheTable) {
   const std::string header = line_starting(changed, "Constant pressure");
   EXPECT_NE(header.find("rkc atol=1 delta (1)"), std::string::npos) << header;
   EXPECT_NE(header.find("respa dt 0.5 (1)"), std::string::npos) << header;
-  EXPECT_NE(header.find("rkc atol=0.1 delta (" + std::to_string(rows - 2) + ")"),
-            std::string::npos)
+  EXPECT_NE(header.find("rkc atol=0.1 delta (" + std::to_string(rows - 2) + ")"), std::string::npos)
       << header;
   EXPECT_NE(line_starting(changed, "| rkc atol=1 delta | 1 |"), "") << changed;
 }
