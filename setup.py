@@ -6,7 +6,9 @@ JAMFLOW_CMAKE_BUILD_DIR (whose build tree was configured with the default prefix
 the module finds the binary at ../../../bin), installs them with `cmake --install` into
 build-pip/stage, and takes from there the module (into site-packages), the binaries (into the
 environment's bin/) and the plot scripts (into its share/jamflow/), where the module and the
-binaries find each other and their plot scripts relative to themselves.
+binaries find each other and their plot scripts relative to themselves. With
+JAMFLOW_CMAKE_INSTALL_AS_BUILT=1 as well, the reused folder is installed as it is, not built
+first (the test suite's pip test: building there would relink binaries that other tests run).
 """
 import glob
 import os
@@ -34,9 +36,10 @@ class CMakeBuild(build_ext):
                 ["cmake", "-S", HERE, "-B", build_dir, "-DCMAKE_BUILD_TYPE=Release",
                  "-DJAMFLOW_TESTS=OFF", f"-DPython_EXECUTABLE={sys.executable}",
                  f"-DJAMFLOW_PYTHON_INSTALL_DIR={PY_DIR}"])
-        jobs = str(os.cpu_count() or 1)
-        subprocess.check_call(["cmake", "--build", build_dir, "-j", jobs, "--target", "jamflow",
-                               "jamflow-analyze", "jamflow_python"])
+        if not (reuse and os.environ.get("JAMFLOW_CMAKE_INSTALL_AS_BUILT") == "1"):
+            jobs = str(os.cpu_count() or 1)
+            subprocess.check_call(["cmake", "--build", build_dir, "-j", jobs, "--target",
+                                   "jamflow", "jamflow-analyze", "jamflow_python"])
         stage = os.path.abspath(STAGE)
         shutil.rmtree(stage, ignore_errors=True)
         subprocess.check_call(["cmake", "--install", build_dir, "--prefix", stage],

@@ -4,8 +4,10 @@
 # module imports from the environment, the `jamflow` command is in its bin/, the module's sweeps
 # run that binary, and its analyses find their plot scripts in the environment's share/jamflow.
 # To keep the test cheap, setup.py reuses this build folder (JAMFLOW_CMAKE_BUILD_DIR) instead of
-# configuring and compiling jamflow again; the source is a copy, so that pip's in-tree build
-# writes nothing into the checkout.
+# configuring and compiling jamflow again, and installs it as ctest found it
+# (JAMFLOW_CMAKE_INSTALL_AS_BUILT): a build step there would relink build/jamflow, which other
+# tests run at the same time, whenever the commit changed since the build (the binary names its
+# commit). The source is a copy, so that pip's in-tree build writes nothing into the checkout.
 # usage: pip_install_test.sh SOURCE_DIR BUILD_DIR
 set -euo pipefail
 src="$(realpath "$1")"
@@ -16,7 +18,7 @@ trap 'rm -rf "$work"' EXIT
 mkdir "$work/src"
 tar -C "$src" --exclude='./build*' --exclude='./.git' -cf - . | tar -C "$work/src" -xf -
 /usr/bin/python3 -m venv --system-site-packages "$work/venv"
-( cd "$work/src" && JAMFLOW_CMAKE_BUILD_DIR="$build" \
+( cd "$work/src" && JAMFLOW_CMAKE_BUILD_DIR="$build" JAMFLOW_CMAKE_INSTALL_AS_BUILT=1 \
     "$work/venv/bin/pip" install --no-build-isolation --no-index . > "$work/pip.log" 2>&1 ) ||
   { tail -40 "$work/pip.log"; echo "FAILED: pip install"; exit 1; }
 echo "ok: pip install . into a venv"
