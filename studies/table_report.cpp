@@ -185,6 +185,8 @@ std::string integrator_label(const Table& table, std::size_t r) {
   const auto label = [&](const std::string& kind, double dt, double atol) {
     if (kind == "cvode")
       return kind;
+    if (kind == "rkc" && !std::isfinite(atol))
+      return kind + " (default atol)";
     if (kind == "rkc")
       return kind + " atol=" +
              (std::isfinite(pressure) ? num(atol / pressure, 2) + " delta" : num(atol, 3));

@@ -205,18 +205,20 @@ TEST(ReportsFromJson, IntegratorNamesComeFromTheTable) {
   const int col = in.table.column("integrator");
   ASSERT_GE(col, 0);
   const std::size_t rows = in.table.rows.size();
-  ASSERT_GE(rows, 2u);
+  ASSERT_GE(rows, 3u);
   const std::string all = "rkc atol=0.1 delta (" + std::to_string(rows) + ")";
   EXPECT_NE(grid_report("hard-sphere", in, in.result).find(all), std::string::npos);
 
   const double p = in.table.number(0, "imposed_pressure");
   in.table.rows[0][std::size_t(col)] = "atol" + num(p, 6) + "_kindrkc";
   in.table.rows[1][std::size_t(col)] = "dt0.5_kindrespa";
+  in.table.rows[2][std::size_t(col)] = "kindrkc";  // its default atol (1e-2 delta)
   const std::string changed = grid_report("hard-sphere", in, in.result);
   const std::string header = line_starting(changed, "Constant pressure");
   EXPECT_NE(header.find("rkc atol=1 delta (1)"), std::string::npos) << header;
   EXPECT_NE(header.find("respa dt 0.5 (1)"), std::string::npos) << header;
-  EXPECT_NE(header.find("rkc atol=0.1 delta (" + std::to_string(rows - 2) + ")"), std::string::npos)
+  EXPECT_NE(header.find("rkc (default atol) (1)"), std::string::npos) << header;
+  EXPECT_NE(header.find("rkc atol=0.1 delta (" + std::to_string(rows - 3) + ")"), std::string::npos)
       << header;
   EXPECT_NE(line_starting(changed, "| rkc atol=1 delta | 1 |"), "") << changed;
 }
