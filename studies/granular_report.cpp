@@ -432,8 +432,7 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
           ++resolved;
           const double sys = systematic_of(pe, "inf");
           rows.push_back({p, with_systematic(v, e, sys), num(law.inf, 4),
-                          sigma_text(v, std::hypot(e, std::isfinite(sys) ? sys : 0.0), law.inf),
-                          why});
+                          sigma_text(v, e, sys, law.inf), why});
         } else {
           rows.push_back({p, "-", num(law.inf, 4), "-", why});
         }
@@ -460,8 +459,7 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
         continue;
       const double sys = systematic_of(nu, key);
       md << (any ? "; " : "") << label << " " << with_systematic(v, e, sys) << " (seed "
-         << num(paper, 3) << ", "
-         << sigma_text(v, std::hypot(e, std::isfinite(sys) ? sys : 0.0), paper) << ")";
+         << num(paper, 3) << ", " << sigma_text(v, e, sys, paper) << ")";
       any = true;
     }
     if (!any)

@@ -163,6 +163,10 @@ std::string sigma_text(double ours, double err, double seed) {
   return buf;
 }
 
+std::string sigma_text(double ours, double err, double sys, double seed) {
+  return sigma_text(ours, std::hypot(err, std::isfinite(sys) ? sys : 0.0), seed);
+}
+
 namespace {
 
 // What a kept row's error is, as analysis/data.cpp reads it: the replica scatter from 3

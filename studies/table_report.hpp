@@ -52,6 +52,8 @@ std::string with_systematic(double v, double e, double sys);
 
 // "+1.2 sigma" (with "(disagrees)" beyond 2), or "n/a" without an error.
 std::string sigma_text(double ours, double err, double seed);
+// The same with a statistical error and a systematic one (NaN: none) in quadrature.
+std::string sigma_text(double ours, double err, double sys, double seed);
 
 // An integrator as reports name it, from the table's integrator column (what the point ran):
 // the kind and its step ("respa dt 0.5"), RKC by its tolerance in units of delta = P at

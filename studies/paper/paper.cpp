@@ -139,8 +139,8 @@ std::string table2_section(const fs::path& analysis) {
       ++resolved;
       const double v = e.at("inf").at("value").as_number(),
                    err = e.at("inf").at("error").as_number(), sys = systematic_of(e, "inf");
-      rows.push_back({name, with_systematic(v, err, sys), num(s.inf, 4),
-                      sigma_text(v, std::hypot(err, std::isfinite(sys) ? sys : 0.0), s.inf), why});
+      rows.push_back(
+          {name, with_systematic(v, err, sys), num(s.inf, 4), sigma_text(v, err, sys, s.inf), why});
     } else {
       rows.push_back({name, "-", num(s.inf, 4), "-", why});
     }
