@@ -71,7 +71,7 @@ struct ComparePlan {
   toml::table run;                         // [run] keys for every setting (t_eq, t_av, ...)
   std::int64_t blocks = 20;
   // diagnose = true: every setting's run is followed by the diagnostic window
-  // (studies/diagnostics.hpp: 256 steps sampled at every step), which classifies it as stable,
+  // (driver/diagnostics.hpp: 256 steps sampled at every step), which classifies it as stable,
   // oscillating or diverged and flags lanes; oscillating or diverged makes a setting unstable.
   bool diagnose = false;
   // window_step: the diagnostic window's sampling interval for adaptive integrators (CVODE,

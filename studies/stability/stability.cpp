@@ -3,7 +3,7 @@
 // pressure, a stiff piston, a large shear rate, N = 100 near jamming, where the seed saw lanes
 // for dt >= 0.3, sec. "Model and numerical methods", and RESPA with particle sub-steps against
 // N), every setting (Euler steps, RESPA splittings, CVODE tolerances) continuing from the case's
-// prepared state, each run classified by its diagnostic window (studies/diagnostics.hpp,
+// prepared state, each run classified by its diagnostic window (driver/diagnostics.hpp,
 // studies/stability/README.md). The compare engine gives each case's verdicts, energy balance and
 // differences from its reference; this section adds the stable / oscillating / diverged map
 // across them, and stability/plot.py draws it from OUT/table.csv.

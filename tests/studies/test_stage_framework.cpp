@@ -118,5 +118,36 @@ TEST(StageFramework, ToyStudyDryRunRunResumeAndAdmission) {
   ::unsetenv("JAMFLOW_KERNEL");
 }
 
+// A scene the engine rejects is not run: its diagnosed run says "not available".
+TEST(StageFramework, RejectedSceneIsNotAvailable) {
+  RunRequest req;
+  req.label = "cvode";
+  req.scene = R"([system]
+N = 20
+phi = 0.5
+[ensemble]
+kind = "constant_volume"
+[shear]
+rate = 1e-3
+[integrator]
+kind = "euler"
+dt = -1.0
+[run]
+t_eq = 1
+t_av = 20
+sample_every = 1
+)";
+  StudyOptions o;
+  o.out_dir = ::testing::TempDir() + "jamflow_rejected_scene";
+  o.quiet = true;
+  std::vector<DiagnosedRun> out;
+  // Nothing to run: the stage returns at once, without the jamflow binary.
+  EXPECT_FALSE(run_stage("test", "only", {req}, o, out, true).has_value());
+  ASSERT_EQ(out.size(), 1u);
+  const DiagnosedRun& d = out.front();
+  EXPECT_EQ(d.cls.verdict, Verdict::kNotAvailable);
+  EXPECT_NE(d.verdict_text().find("not available"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace jamflow::studies

@@ -1,17 +1,17 @@
-// Shared study diagnostics on synthetic data: the period-2 oscillation detector, the lane
-// order parameter, the energy-balance residual, and the stable / oscillating / diverged
-// classification.
+// The stability diagnostics of a run (driver/diagnostics.hpp) on synthetic data: the period-2
+// oscillation detector, the lane order parameter, the energy-balance residual, and the stable /
+// oscillating / diverged classification.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <numbers>
 #include <random>
 
+#include "driver/diagnostics.hpp"
 #include "lib/init.hpp"
-#include "studies/diagnostics.hpp"
 
 using namespace jamflow;
-using namespace jamflow::studies;
+using namespace jamflow::diagnostics;
 
 namespace {
 
@@ -179,61 +179,31 @@ TEST(Diagnostics, Classification) {
   WindowResult w;
   w.steps_done = 100;
   w.force_correlation = 0.999;
-  EXPECT_EQ(classify(r, eb, &w, {}).verdict, studies::Verdict::kStable);
+  EXPECT_EQ(classify(r, eb, &w, {}).verdict, diagnostics::Verdict::kStable);
   w.force_correlation = 0.5;  // period-2 share 25 %
-  EXPECT_EQ(classify(r, eb, &w, {}).verdict, studies::Verdict::kOscillating);
+  EXPECT_EQ(classify(r, eb, &w, {}).verdict, diagnostics::Verdict::kOscillating);
   w.force_correlation = 0.999;
   w.lane_order = 0.6;
   const Classification laned = classify(r, eb, &w, {});
-  EXPECT_EQ(laned.verdict, studies::Verdict::kStable);
+  EXPECT_EQ(laned.verdict, diagnostics::Verdict::kStable);
   EXPECT_TRUE(laned.laned);
 
   ReplicaResult bad;
   bad.series.samples = balance_series(2.0, 10.0, 0.01, 0.0);
   EnergyBalance eb_bad = energy_balance(bad.series.samples, 100.0, 1e-3, {}, 20);
   const Classification osc = classify(bad, eb_bad, nullptr, {});
-  EXPECT_EQ(osc.verdict, studies::Verdict::kOscillating);
+  EXPECT_EQ(osc.verdict, diagnostics::Verdict::kOscillating);
   EXPECT_NE(osc.reason.find("energy balance"), std::string::npos);
 
   ReplicaResult failed = r;
   failed.status = RunStatus::parse("failed at t = 12: forces became non-finite");
-  EXPECT_EQ(classify(failed, eb, &w, {}).verdict, studies::Verdict::kDiverged);
+  EXPECT_EQ(classify(failed, eb, &w, {}).verdict, diagnostics::Verdict::kDiverged);
   // Stopped by a signal with its checkpoint kept: unfinished, not diverged.
   ReplicaResult interrupted = r;
   interrupted.status = RunStatus::parse("interrupted at t = 2285.46 by SIGTERM");
   const Classification unfinished = classify(interrupted, eb, &w, {});
-  EXPECT_EQ(unfinished.verdict, studies::Verdict::kIncomplete);
+  EXPECT_EQ(unfinished.verdict, diagnostics::Verdict::kIncomplete);
   EXPECT_NE(unfinished.reason.find("not finished"), std::string::npos);
   w.status = RunStatus::parse("failed at step 3: cell volume became -1");
-  EXPECT_EQ(classify(r, eb, &w, {}).verdict, studies::Verdict::kDiverged);
-}
-
-TEST(Diagnostics, RejectedSceneIsNotAvailable) {
-  RunRequest req;
-  req.label = "cvode";
-  req.scene = R"([system]
-N = 20
-phi = 0.5
-[ensemble]
-kind = "constant_volume"
-[shear]
-rate = 1e-3
-[integrator]
-kind = "euler"
-dt = -1.0
-[run]
-t_eq = 1
-t_av = 20
-sample_every = 1
-)";
-  StudyOptions o;
-  o.out_dir = ::testing::TempDir() + "jamflow_rejected_scene";
-  o.quiet = true;
-  std::vector<DiagnosedRun> out;
-  // Nothing to run: the stage returns at once, without the jamflow binary.
-  EXPECT_FALSE(run_stage("test", "only", {req}, o, out, true).has_value());
-  ASSERT_EQ(out.size(), 1u);
-  const DiagnosedRun& d = out.front();
-  EXPECT_EQ(d.cls.verdict, studies::Verdict::kNotAvailable);
-  EXPECT_NE(d.verdict_text().find("not available"), std::string::npos);
+  EXPECT_EQ(classify(r, eb, &w, {}).verdict, diagnostics::Verdict::kDiverged);
 }
