@@ -17,8 +17,8 @@
 #include "lib/cli_exit.hpp"
 #include "lib/error.hpp"
 #include "lib/version.hpp"
-#include "studies/compare.hpp"
-#include "studies/study.hpp"
+#include "framework/compare.hpp"
+#include "framework/study.hpp"
 
 namespace {
 

@@ -1,5 +1,5 @@
-// Shared toolkit for studies: the seed's start packing fractions, markdown tables and numbers,
-// and the plotting scripts (Debian's python3 with matplotlib).
+// Shared toolkit for studies: the seed's start packing fractions, and the report helpers of
+// framework/report.hpp.
 #pragma once
 #include <cstdint>
 #include <map>
@@ -7,7 +7,8 @@
 #include <vector>
 
 #include "driver/run.hpp"
-#include "studies/study.hpp"
+#include "framework/report.hpp"
+#include "framework/study.hpp"
 
 namespace jamflow::studies {
 
@@ -18,32 +19,5 @@ double hard_sphere_phi(double j, std::int64_t n);
 // `below` lower, clamped to [0.3, phi_max]. Only the start: the piston finds the steady state;
 // starting near it shortens the transient.
 double phi_start(double j, std::int64_t n, double below = 0.0, double phi_max = 0.64);
-
-// A markdown table: header names, then rows of already formatted cells.
-std::string markdown_table(const std::vector<std::string>& header,
-                           const std::vector<std::vector<std::string>>& rows);
-
-// "a, b, c".
-std::string join(const std::vector<std::string>& items);
-
-// "1.234e-05 +- 6.7e-07" style formatting.
-std::string pm(double value, double error, int digits = 4);
-std::string num(double value, int digits = 4);
-
-// Runs analysis/plot script `script` (a path relative to the studies folder, e.g.
-// "ensemble/plot.py") with arguments; returns false (with a one-line warning) if python or
-// matplotlib is unavailable or the script fails. Honours options.no_plots.
-bool run_plot(const std::string& script, const std::vector<std::string>& args,
-              const StudyOptions& options);
-
-// The studies' installed data folder (plot scripts, compare files): <share>/jamflow/studies, or
-// the source folder in a build tree (lib/data_files.hpp).
-std::string studies_data_dir();
-
-// Creates the output folder (and parents); throws IoError if it cannot.
-void ensure_dir(const std::string& dir);
-
-// Writes text to a file atomically (temporary + rename).
-void write_text(const std::string& path, const std::string& text);
 
 }  // namespace jamflow::studies

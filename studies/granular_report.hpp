@@ -7,8 +7,8 @@
 
 #include "analysis/json.hpp"
 #include "studies/pressure_points.hpp"
-#include "studies/study.hpp"
-#include "studies/sweep_study.hpp"
+#include "framework/study.hpp"
+#include "framework/sweep_study.hpp"
 #include "studies/table_report.hpp"
 
 namespace jamflow::studies::granular {
@@ -25,7 +25,7 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
                             const Table& table, const analysis::Json& result, int analysis_status,
                             double wall_seconds);
 
-// A grid study end to end: its points through the sweep engine (studies/sweep_study.hpp), then
+// A grid study end to end: its points through the sweep engine (framework/sweep_study.hpp), then
 // analyze_and_report. Returns the exit status (that of the engine when it stopped early).
 int run_grid_study(const std::string& study, const GridPreset& grid, const StudyOptions& options);
 

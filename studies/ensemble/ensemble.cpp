@@ -1,5 +1,5 @@
 // Ensemble comparison (the seed's Fig. 1, sec. "Model and numerical methods"): a comparison plan
-// run by `jamflow compare` (studies/compare.hpp). Each preset is a compare file in this
+// run by `jamflow compare` (framework/compare.hpp). Each preset is a compare file in this
 // folder (quick.toml, standard.toml, paper.toml): relaxed random starts, constant pressure
 // P = 1e-5 (Kolb–Dünweg piston) from them, and constant volume continued from each
 // constant-pressure replica at the packing fraction they reached. The comparison reports the
@@ -10,8 +10,8 @@
 
 #include "analysis/seed.hpp"
 #include "studies/common.hpp"
-#include "studies/compare.hpp"
-#include "studies/study.hpp"
+#include "framework/compare.hpp"
+#include "framework/study.hpp"
 #include "studies/table_report.hpp"
 
 namespace jamflow::studies {

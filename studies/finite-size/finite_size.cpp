@@ -4,7 +4,7 @@
 // README.md in this folder.
 #include "studies/granular_report.hpp"
 #include "studies/pressure_points.hpp"
-#include "studies/study.hpp"
+#include "framework/study.hpp"
 
 namespace jamflow::studies {
 namespace {

@@ -2,7 +2,7 @@
 // Figs. 2-4 and 7) from jamflow's own constant-pressure runs. See README.md in this folder.
 #include "studies/granular_report.hpp"
 #include "studies/pressure_points.hpp"
-#include "studies/study.hpp"
+#include "framework/study.hpp"
 
 namespace jamflow::studies {
 namespace {

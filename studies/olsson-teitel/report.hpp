@@ -4,7 +4,7 @@
 #include <string>
 
 #include "analysis/json.hpp"
-#include "studies/sweep_study.hpp"
+#include "framework/sweep_study.hpp"
 #include "studies/table_report.hpp"
 #include "studies/volume_points.hpp"
 

@@ -14,7 +14,7 @@
 #include "analysis/seed.hpp"
 #include "lib/error.hpp"
 #include "studies/common.hpp"
-#include "studies/study.hpp"
+#include "framework/study.hpp"
 #include "studies/table_report.hpp"
 #include "sweep/engine.hpp"
 #include "sweep/mpi.hpp"

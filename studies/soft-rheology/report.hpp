@@ -5,7 +5,7 @@
 
 #include "analysis/json.hpp"
 #include "studies/soft-rheology/points.hpp"
-#include "studies/sweep_study.hpp"
+#include "framework/sweep_study.hpp"
 #include "studies/table_report.hpp"
 
 namespace jamflow::studies::soft_rheology {

@@ -14,8 +14,8 @@
 #include "studies/granular_report.hpp"
 #include "studies/soft-rheology/points.hpp"
 #include "studies/soft-rheology/report.hpp"
-#include "studies/study.hpp"
-#include "studies/sweep_study.hpp"
+#include "framework/study.hpp"
+#include "framework/sweep_study.hpp"
 #include "studies/table_report.hpp"
 
 namespace jamflow::studies {

@@ -10,7 +10,7 @@
 //      limit phi(J), mu(J) does not depend on alpha_r, so the reference is one per J: alpha_r =
 //      2 at a pressure far below the grid (CVODE, relaxed for t >= relax_pressure / P);
 //   C. the measured cost to reach strain 1 at (P*, J) with that integrator.
-// B and C are the comparison's follow-up (studies/compare.hpp CompareFollowUp): one more sweep
+// B and C are the comparison's follow-up (framework/compare.hpp CompareFollowUp): one more sweep
 // stage, whose scenes the plan builds (ComparePlan::setting_scene at each point of the grid).
 #include "studies/softness/softness.hpp"
 

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
-#include "studies/compare.hpp"
-#include "studies/study.hpp"
+#include "framework/compare.hpp"
+#include "framework/study.hpp"
 
 namespace jamflow::studies {
 

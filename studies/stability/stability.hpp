@@ -1,12 +1,12 @@
 // Stability study (studies/stability): a stable / oscillating / diverged map against the step
 // or tolerance on stiff and extreme cases. A comparison plan per preset (quick.toml,
 // standard.toml, paper.toml in this folder, one [[case]] per case) run by the compare engine
-// (studies/compare.hpp), and this study's own report section, exposed for the tests.
+// (framework/compare.hpp), and this study's own report section, exposed for the tests.
 #pragma once
 #include <string>
 #include <vector>
 
-#include "studies/compare.hpp"
+#include "framework/compare.hpp"
 
 namespace jamflow::studies {
 

@@ -15,7 +15,7 @@
 #include <utility>
 
 #include "studies/common.hpp"
-#include "studies/study.hpp"
+#include "framework/study.hpp"
 
 namespace jamflow::studies {
 

@@ -1,12 +1,12 @@
 // Timestep study (studies/timestep): error of steady-state means against CPU time for Euler,
 // RESPA, CVODE and RKC at fixed state points. A comparison plan per preset (quick.toml,
 // standard.toml, paper.toml in this folder, one [[case]] per state point) run by the compare
-// engine (studies/compare.hpp), and this study's own report section, exposed for the tests.
+// engine (framework/compare.hpp), and this study's own report section, exposed for the tests.
 #pragma once
 #include <string>
 #include <vector>
 
-#include "studies/compare.hpp"
+#include "framework/compare.hpp"
 
 namespace jamflow::studies {
 

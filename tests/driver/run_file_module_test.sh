@@ -9,7 +9,7 @@ set -euo pipefail
 root="$1"
 cd "$root"
 allowed='^(driver/checkpoint\.cpp|driver/run_file\.cpp|driver/run_summary\.cpp|lib/h5\.cpp|lib/h5\.hpp|lib/h5md\.cpp):'
-dirs=(lib ensembles integrators driver sweep analysis studies apps python fuzz benchmarks)
+dirs=(lib ensembles integrators driver sweep analysis framework studies apps python fuzz benchmarks)
 # H5Fopen anywhere; an H5Reader constructed (a variable, a temporary, emplace into an optional).
 pattern='H5Fopen|H5Reader[[:space:]]+[A-Za-z_][A-Za-z0-9_]*[[:space:]]*[({]|H5Reader[({]|optional<[^>]*H5Reader'
 hits=$(grep -rnE --include='*.cpp' --include='*.hpp' "$pattern" "${dirs[@]}" | grep -vE "$allowed" || true)

@@ -1,4 +1,4 @@
-// A study's own report section on a comparison (studies/compare.hpp CompareReportSection): it
+// A study's own report section on a comparison (framework/compare.hpp CompareReportSection): it
 // sees every case's plan, analysis and runs (by setting and replica, the diagnostic window
 // included), once, and what it returns goes into the one report (without cases, before the
 // recommendation) or at the end of OUT/report.md (with cases), not into the cases' reports.
@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "lib/error.hpp"
-#include "studies/compare.hpp"
+#include "framework/compare.hpp"
 #include "tests/driver/temp_dir.hpp"
 #include "tests/studies/jamflow_exe.hpp"
 

@@ -16,7 +16,7 @@
 
 #include "lib/h5.hpp"
 #include "studies/common.hpp"
-#include "studies/study.hpp"
+#include "framework/study.hpp"
 #include "tests/driver/temp_dir.hpp"
 #include "tests/studies/jamflow_exe.hpp"
 

@@ -1,4 +1,4 @@
-// The staged-run framework of the studies (studies/diagnostics.hpp run_stage), once, on a toy
+// The staged-run framework of the studies (framework/stage.hpp run_stage), once, on a toy
 // study of two stages defined by its requests alone: a preparation, then two runs that continue
 // from its final state. --dry-run counts both stages and runs nothing; the run reads every point
 // back; a rerun finds them and redoes none; the admission rule leaves the run whose blocks are
@@ -13,7 +13,7 @@
 #include <utility>
 #include <vector>
 
-#include "studies/diagnostics.hpp"
+#include "framework/stage.hpp"
 #include "tests/studies/jamflow_exe.hpp"
 
 namespace jamflow::studies {

@@ -7,7 +7,7 @@
 #include <filesystem>
 #include <string>
 
-#include "studies/diagnostics.hpp"
+#include "framework/stage.hpp"
 #include "sweep/plan.hpp"
 
 namespace jamflow::studies {

@@ -1,5 +1,5 @@
 // Stability and accuracy diagnostics shared by the timestep, stability and softness studies.
-#include "studies/diagnostics.hpp"
+#include "framework/stage.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -16,9 +16,9 @@
 
 #include "analysis/admission.hpp"
 #include "driver/checkpoint.hpp"
+#include "framework/report.hpp"
+#include "framework/sweep_study.hpp"
 #include "lib/error.hpp"
-#include "studies/common.hpp"
-#include "studies/sweep_study.hpp"
 #include "sweep/execute.hpp"
 
 namespace jamflow::studies {

@@ -5,7 +5,7 @@
 // from the same prepared state k (prepared with seed base + k), so settings are paired replica
 // by replica; a setting may instead continue from another setting's replica k (`from`). The
 // stages (preparation, settings, settings continued from settings) run on the sweep engine
-// (studies/diagnostics.hpp run_stage: local cores, MPI ranks, Slurm arrays, resume, --dry-run);
+// (framework/stage.hpp run_stage: local cores, MPI ranks, Slurm arrays, resume, --dry-run);
 // the numbers come from analysis/compare.hpp, and the report (OUT/compare.h5, OUT/table.csv, PNG
 // plots, OUT/report.md) renders them. A study can be a compare file plus a report section of its
 // own (CompareReportSection): studies/ensemble is one.
@@ -19,10 +19,10 @@
 #include <vector>
 
 #include "analysis/compare.hpp"
+#include "framework/stage.hpp"
+#include "framework/study.hpp"
 #include "lib/attributes.hpp"
 #include "lib/config.hpp"
-#include "studies/diagnostics.hpp"
-#include "studies/study.hpp"
 
 namespace jamflow::studies {
 

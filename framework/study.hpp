@@ -19,7 +19,7 @@ struct StudyOptions {
   // rebuilds each part that can) without running or collecting points: for committed results
   // whose point files are not kept. Studies without a table-based report refuse it.
   bool report_only = false;
-  // Every study runs its points as sweeps (studies/sweep_study.hpp): points at once (0: the
+  // Every study runs its points as sweeps (framework/sweep_study.hpp): points at once (0: the
   // cores), print the point count and cost and stop, or write a Slurm job array instead of
   // running.
   int jobs = 0;

@@ -16,7 +16,7 @@
 #include <optional>
 #include <string>
 
-#include "studies/study.hpp"
+#include "framework/study.hpp"
 #include "sweep/plan.hpp"
 
 namespace jamflow::studies {

@@ -1,11 +1,11 @@
-#include "studies/sweep_study.hpp"
+#include "framework/sweep_study.hpp"
 
 #include <cstdio>
 #include <filesystem>
 
+#include "framework/report.hpp"
 #include "lib/error.hpp"
 #include "lib/table.hpp"
-#include "studies/common.hpp"
 #include "sweep/collect.hpp"
 #include "sweep/engine.hpp"
 #include "sweep/execute.hpp"

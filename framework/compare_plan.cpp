@@ -1,6 +1,6 @@
-// The compare file (studies/compare.hpp): reading and checking it, its cases, and the scenes of
+// The compare file (framework/compare.hpp): reading and checking it, its cases, and the scenes of
 // its settings and preparations. Running it and its report: compare.cpp.
-#include "studies/compare.hpp"
+#include "framework/compare.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -14,8 +14,8 @@
 
 #include "analysis/compare.hpp"
 #include "driver/run.hpp"
+#include "framework/report.hpp"
 #include "lib/error.hpp"
-#include "studies/common.hpp"
 #include "sweep/plan.hpp"
 
 namespace jamflow::studies {

@@ -1,5 +1,5 @@
 // `jamflow study` command line and registry.
-#include "studies/study.hpp"
+#include "framework/study.hpp"
 
 #include <CLI/CLI.hpp>
 #include <algorithm>

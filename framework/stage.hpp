@@ -11,7 +11,7 @@
 #include "driver/diagnostics.hpp"
 #include "driver/run.hpp"
 #include "driver/verdicts.hpp"
-#include "studies/study.hpp"
+#include "framework/study.hpp"
 
 namespace jamflow::studies {
 
@@ -74,7 +74,7 @@ struct DiagnosedRun {
   std::string verdict_text() const;
 };
 
-// Runs the requests of one stage of `study` as a sweep (studies/sweep_study.hpp) in
+// Runs the requests of one stage of `study` as a sweep (framework/sweep_study.hpp) in
 // OUT/<stage>/, one point per request named by its label, and reads every point back from its
 // run file (driver/checkpoint.hpp read_run_file): series, summary and verdicts, final state,
 // counters, cost; then the energy balance, the diagnostic window (256 steps from the run's final

@@ -1,7 +1,7 @@
-// `jamflow compare` (studies/compare.hpp): the stages of a comparison (preparations, settings,
+// `jamflow compare` (framework/compare.hpp): the stages of a comparison (preparations, settings,
 // settings continued from settings; every case's together) on the sweep engine, the analysis
 // of each case, and its report. The compare file and its scenes: compare_plan.cpp.
-#include "studies/compare.hpp"
+#include "framework/compare.hpp"
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -19,14 +19,14 @@
 #include "analysis/compare.hpp"
 #include "driver/run.hpp"
 #include "driver/verdicts.hpp"
+#include "framework/report.hpp"
+#include "framework/stage.hpp"
 #include "lib/cli_exit.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "lib/statistics.hpp"
 #include "lib/text_file.hpp"
 #include "lib/xyz.hpp"
-#include "studies/common.hpp"
-#include "studies/diagnostics.hpp"
 #include "sweep/mpi.hpp"
 #include "sweep/slurm.hpp"
 
