@@ -210,6 +210,28 @@ INSTANTIATE_TEST_SUITE_P(Rkc, Resume,
                                          Case{"rkc_NP", kPressure, kRkc}),
                          [](const auto& info) { return std::string(info.param.name); });
 
+// A checkpoint that takes longer to write than checkpoint_every (here 30 ms against 1 ms, as a
+// large system or a slow disk would) must not leave the run a step between writes: the next one
+// waits at least as long as the last write took. 1000 Euler steps; a write per step (what
+// happens if the clock keeps running during the write) would be 1000 writes. The bound, 250, is
+// a quarter of that: at 30 ms a write and a wait of at least 30 ms between them, it holds
+// unless the steps take over 15 ms each, 100x slower than a sanitizer build.
+TEST(Checkpoint, SlowWritesDoNotStallTheRun) {
+  TempDir dir;
+  const RunSpec spec = spec_of(scene(dir.file("slow.h5"), kVolume, kEuler, 10.0, 40.0));
+  RunOptions o;
+  o.checkpoint_every = 0.001;
+  int writes = 0;
+  o.checkpoint = [&](const ReplicaResult&) {
+    ++writes;
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+  };
+  const ReplicaResult r = run_replica(spec, spec.seed, o);
+  ASSERT_TRUE(r.status.is_complete()) << r.status.text();
+  EXPECT_GE(writes, 1);  // the clock did ask for checkpoints
+  EXPECT_LT(writes, 250) << "checkpoint writes during 1000 steps";
+}
+
 TEST(Resume, ExtendAppendsAndEqualsTheLongerRun) {
   TempDir dir;
   const std::string ref = dir.file("long.h5"), ext = dir.file("short.h5");
