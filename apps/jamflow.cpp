@@ -13,12 +13,12 @@
 #include "driver/checkpoint.hpp"
 #include "driver/run.hpp"
 #include "ensembles/registry.hpp"
+#include "framework/compare.hpp"
+#include "framework/study.hpp"
 #include "integrators/registry.hpp"
 #include "lib/cli_exit.hpp"
 #include "lib/error.hpp"
 #include "lib/version.hpp"
-#include "framework/compare.hpp"
-#include "framework/study.hpp"
 
 namespace {
 

@@ -6,9 +6,9 @@
 #include <string>
 
 #include "analysis/json.hpp"
-#include "studies/pressure_points.hpp"
 #include "framework/study.hpp"
 #include "framework/sweep_study.hpp"
+#include "studies/pressure_points.hpp"
 #include "studies/table_report.hpp"
 
 namespace jamflow::studies::granular {

@@ -9,9 +9,9 @@
 #include <string>
 
 #include "analysis/seed.hpp"
-#include "studies/common.hpp"
 #include "framework/compare.hpp"
 #include "framework/study.hpp"
+#include "studies/common.hpp"
 #include "studies/table_report.hpp"
 
 namespace jamflow::studies {

@@ -2,9 +2,9 @@
 // limit O(N) = O_inf + A_O N^-alpha_O (the seed's Table 2, Figs. 5-6) with nu from phi and
 // from mu. The same points and analysis as the hard-sphere study, over more sizes. See
 // README.md in this folder.
+#include "framework/study.hpp"
 #include "studies/granular_report.hpp"
 #include "studies/pressure_points.hpp"
-#include "framework/study.hpp"
 
 namespace jamflow::studies {
 namespace {

@@ -1,8 +1,8 @@
 // `jamflow study hard-sphere`: the granular rheology of the hard-sphere limit (the seed's
 // Figs. 2-4 and 7) from jamflow's own constant-pressure runs. See README.md in this folder.
+#include "framework/study.hpp"
 #include "studies/granular_report.hpp"
 #include "studies/pressure_points.hpp"
-#include "framework/study.hpp"
 
 namespace jamflow::studies {
 namespace {

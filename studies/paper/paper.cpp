@@ -12,9 +12,9 @@
 
 #include "analysis/json.hpp"
 #include "analysis/seed.hpp"
+#include "framework/study.hpp"
 #include "lib/error.hpp"
 #include "studies/common.hpp"
-#include "framework/study.hpp"
 #include "studies/table_report.hpp"
 #include "sweep/engine.hpp"
 #include "sweep/mpi.hpp"

@@ -4,8 +4,8 @@
 #include <string>
 
 #include "analysis/json.hpp"
-#include "studies/soft-rheology/points.hpp"
 #include "framework/sweep_study.hpp"
+#include "studies/soft-rheology/points.hpp"
 #include "studies/table_report.hpp"
 
 namespace jamflow::studies::soft_rheology {

@@ -10,12 +10,12 @@
 
 #include "analysis/analyze_cli.hpp"
 #include "analysis/seed.hpp"
+#include "framework/study.hpp"
+#include "framework/sweep_study.hpp"
 #include "studies/common.hpp"
 #include "studies/granular_report.hpp"
 #include "studies/soft-rheology/points.hpp"
 #include "studies/soft-rheology/report.hpp"
-#include "framework/study.hpp"
-#include "framework/sweep_study.hpp"
 #include "studies/table_report.hpp"
 
 namespace jamflow::studies {

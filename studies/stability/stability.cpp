@@ -14,8 +14,8 @@
 #include <limits>
 #include <map>
 
-#include "studies/common.hpp"
 #include "framework/study.hpp"
+#include "studies/common.hpp"
 
 namespace jamflow::studies {
 

@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "lib/error.hpp"
 #include "framework/compare.hpp"
+#include "lib/error.hpp"
 #include "tests/driver/temp_dir.hpp"
 #include "tests/studies/jamflow_exe.hpp"
 

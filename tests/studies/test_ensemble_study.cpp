@@ -14,9 +14,9 @@
 #include <iterator>
 #include <string>
 
+#include "framework/study.hpp"
 #include "lib/h5.hpp"
 #include "studies/common.hpp"
-#include "framework/study.hpp"
 #include "tests/driver/temp_dir.hpp"
 #include "tests/studies/jamflow_exe.hpp"
 
