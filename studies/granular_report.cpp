@@ -16,10 +16,10 @@
 #include "analysis/analyze_cli.hpp"
 #include "analysis/json.hpp"
 #include "analysis/seed.hpp"
+#include "framework/table_report.hpp"
 #include "lib/error.hpp"
 #include "lib/h5.hpp"
 #include "studies/common.hpp"
-#include "studies/table_report.hpp"
 #include "sweep/engine.hpp"
 #include "sweep/plan.hpp"
 

@@ -8,8 +8,8 @@
 #include "analysis/json.hpp"
 #include "framework/study.hpp"
 #include "framework/sweep_study.hpp"
+#include "framework/table_report.hpp"
 #include "studies/pressure_points.hpp"
-#include "studies/table_report.hpp"
 
 namespace jamflow::studies::granular {
 

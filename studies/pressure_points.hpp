@@ -10,6 +10,7 @@
 #include <toml++/toml.h>
 
 #include "integrators/registry.hpp"
+#include "lib/table.hpp"
 
 namespace jamflow::studies {
 
@@ -54,5 +55,13 @@ PointIntegrator integrator_for(std::int64_t n, double pressure);
 
 // Writes the preset's sweep file (base scene and the zip of every point) and returns its text.
 std::string pressure_sweep_text(const GridPreset& preset);
+
+// An integrator as reports name it, from the table's integrator column (what the point ran):
+// the kind and its step ("respa dt 0.5"), RKC by its tolerance in units of delta = P at
+// constant pressure; in a table collected before that column existed, as the grid presets
+// choose it (studies/pressure_points.hpp integrator_for), or "?" at constant volume.
+std::string integrator_label(const Table& table, std::size_t r);
+// Every integrator of the table with its count of points: "rkc atol=0.1 delta (19), cvode (3)".
+std::string integrators_line(const Table& table);
 
 }  // namespace jamflow::studies

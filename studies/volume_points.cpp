@@ -9,9 +9,9 @@
 #include <toml++/toml.h>
 
 #include "analysis/soft.hpp"
+#include "framework/point_plan.hpp"
 #include "lib/config.hpp"
 #include "lib/error.hpp"
-#include "studies/point_plan.hpp"
 #include "studies/pressure_points.hpp"
 
 namespace jamflow::studies {

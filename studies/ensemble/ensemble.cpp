@@ -11,8 +11,8 @@
 #include "analysis/seed.hpp"
 #include "framework/compare.hpp"
 #include "framework/study.hpp"
+#include "framework/table_report.hpp"
 #include "studies/common.hpp"
-#include "studies/table_report.hpp"
 
 namespace jamflow::studies {
 namespace {

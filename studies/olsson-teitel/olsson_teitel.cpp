@@ -16,12 +16,12 @@
 #include "analysis/seed.hpp"
 #include "framework/study.hpp"
 #include "framework/sweep_study.hpp"
+#include "framework/table_report.hpp"
 #include "lib/error.hpp"
 #include "studies/common.hpp"
 #include "studies/granular_report.hpp"
 #include "studies/olsson-teitel/points.hpp"
 #include "studies/olsson-teitel/report.hpp"
-#include "studies/table_report.hpp"
 #include "sweep/engine.hpp"
 #include "sweep/plan.hpp"
 

@@ -5,7 +5,7 @@
 
 #include "analysis/json.hpp"
 #include "framework/sweep_study.hpp"
-#include "studies/table_report.hpp"
+#include "framework/table_report.hpp"
 #include "studies/volume_points.hpp"
 
 namespace jamflow::studies::olsson_teitel {

@@ -5,8 +5,8 @@
 
 #include "analysis/json.hpp"
 #include "framework/sweep_study.hpp"
+#include "framework/table_report.hpp"
 #include "studies/soft-rheology/points.hpp"
-#include "studies/table_report.hpp"
 
 namespace jamflow::studies::soft_rheology {
 

@@ -12,11 +12,11 @@
 #include "analysis/seed.hpp"
 #include "framework/study.hpp"
 #include "framework/sweep_study.hpp"
+#include "framework/table_report.hpp"
 #include "studies/common.hpp"
 #include "studies/granular_report.hpp"
 #include "studies/soft-rheology/points.hpp"
 #include "studies/soft-rheology/report.hpp"
-#include "studies/table_report.hpp"
 
 namespace jamflow::studies {
 namespace {

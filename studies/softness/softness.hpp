@@ -2,17 +2,23 @@
 // plan followed by pressure scans. The plan (studies/softness/<preset>.toml) compares the
 // integrator settings at both ends of each alpha_r's overlap range, one [[case]] each; its
 // [study] table holds the pressure scans' grid, lengths and the common P -> 0 reference. What is
-// exposed here is for the tests: the [study] parameters, the P* rule and the cost to strain 1.
+// exposed here is for the tests: the [study] parameters and the cost to strain 1; the P* rule is
+// analysis/p_star.hpp.
 #pragma once
 #include <cstdint>
 #include <limits>
 #include <string>
 #include <vector>
 
+#include "analysis/p_star.hpp"
 #include "framework/compare.hpp"
 #include "framework/study.hpp"
 
 namespace jamflow::studies {
+
+using analysis::find_p_star;
+using analysis::PStar;
+using analysis::ScanValue;
 
 // The [study] table of a softness plan. The pressure grid of alpha_r is P = delta^(alpha_r - 1)
 // over the typical overlaps `deltas` (the contact force is delta^(alpha_r - 1), SPEC §1), without
@@ -45,39 +51,6 @@ double steps_per_particle(double j, double pressure, double dt);
 // The cost to shear to strain 1 at (J, P) from a cost per unit time (seconds or force
 // evaluations per tau_0): per_tau / (J P).
 double cost_to_strain_one(double per_tau, double j, double pressure);
-
-// ---- The P* rule ------------------------------------------------------------------------------
-
-// A point of a pressure scan: usable = its verdicts let it into the conclusions.
-struct ScanValue {
-  double pressure = 0.0;
-  bool usable = false;
-  double mu = 0.0, mu_err = 0.0, phi = 0.0, phi_err = 0.0;
-};
-
-struct PStar {
-  // Per point (input order): 1 agrees with the reference within `sigmas` combined standard
-  // errors in both mu and phi, 0 differs, -1 not usable (not compared).
-  std::vector<int> agrees;
-  std::vector<double> dmu, dmu_err, dphi, dphi_err;
-  int smallest = -1;     // the smallest-P usable point (-1: none)
-  bool reached = false;  // it agrees with the reference
-  double p_star = std::numeric_limits<double>::quiet_NaN();
-  bool p_star_is_smallest = false;  // P* is the smallest usable P, and the next larger differs
-  bool p_star_is_largest = false;   // no usable P above P*: the true P* may be larger
-  // Points below the smallest usable P that their verdicts left out (e.g. correlated): when the
-  // smallest usable P differs, "not reached" is then not established, since a left-out point
-  // closer to the limit may agree.
-  int left_out_below = 0;
-  bool left_out_below_agrees = false;  // one of them agrees, on its (uncertain) errors
-};
-
-// P* = the largest P such that every usable point at P' <= P agrees with the reference (mu and
-// phi within `sigmas` combined standard errors); undetermined (NaN) when the smallest usable
-// point differs: the scan never reached the reference's limit (unless points below it were left
-// out by their verdicts: then undetermined).
-PStar find_p_star(const std::vector<ScanValue>& points, const ScanValue& reference,
-                  double sigmas = 2.0);
 
 // Runs a softness plan (its comparison, then the pressure scans and the common reference) into
 // options.out_dir; `jamflow study softness` runs studies/softness/<preset>.toml.

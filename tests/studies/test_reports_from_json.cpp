@@ -13,13 +13,13 @@
 
 #include "analysis/json.hpp"
 #include "analysis/seed.hpp"
+#include "framework/table_report.hpp"
 #include "studies/common.hpp"
 #include "studies/granular_report.hpp"
 #include "studies/olsson-teitel/points.hpp"
 #include "studies/olsson-teitel/report.hpp"
 #include "studies/soft-rheology/points.hpp"
 #include "studies/soft-rheology/report.hpp"
-#include "studies/table_report.hpp"
 #include "sweep/plan.hpp"
 
 namespace jamflow::studies {

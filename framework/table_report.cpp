@@ -1,4 +1,4 @@
-#include "studies/table_report.hpp"
+#include "framework/table_report.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -11,9 +11,8 @@
 
 #include "analysis/admission.hpp"
 #include "driver/checkpoint.hpp"
+#include "framework/report.hpp"
 #include "lib/statistics.hpp"
-#include "studies/common.hpp"
-#include "studies/pressure_points.hpp"
 #include "sweep/execute.hpp"
 #include "sweep/plan.hpp"
 
@@ -180,52 +179,6 @@ std::string kept_label(const Table& table, std::size_t r) {
 }
 
 }  // namespace
-
-// An integrator as the report names it: the kind and its step ("respa dt 0.5"), RKC by its
-// tolerance in units of delta = P. From the table's integrator column (what the point really
-// ran), or, in a table collected before that column existed, as the preset chooses it.
-std::string integrator_label(const Table& table, std::size_t r) {
-  const double pressure = table.number(r, "imposed_pressure");  // NaN at constant volume
-  const auto label = [&](const std::string& kind, double dt, double atol) {
-    if (kind == "cvode")
-      return kind;
-    if (kind == "rkc" && !std::isfinite(atol))
-      return kind + " (default atol)";
-    if (kind == "rkc")
-      return kind + " atol=" +
-             (std::isfinite(pressure) ? num(atol / pressure, 2) + " delta" : num(atol, 3));
-    return kind + " dt " + num(dt, 2);
-  };
-  if (table.column("integrator") < 0) {
-    const IntegratorSettings ic =
-        integrator_for(std::int64_t(table.number(r, "N")), pressure).settings;
-    return label(ic.kind, ic.number("dt").value_or(0.0), ic.number("atol").value_or(0.0));
-  }
-  // The column joins key and value, keys sorted: "atol3e-06_kindrkc", "dt0.5_kindrespa".
-  const std::string t = table.text(r, "integrator");
-  const auto value = [&](const std::string& key) {
-    std::size_t at = 0;
-    while ((at = t.find(key, at)) != std::string::npos && at > 0 && t[at - 1] != '_')
-      ++at;
-    return at == std::string::npos ? std::nan("")
-                                   : std::strtod(t.c_str() + at + key.size(), nullptr);
-  };
-  for (const char* kind : {"cvode", "rkc", "respa", "euler"}) {
-    if (t.find(std::string("kind") + kind) != std::string::npos)
-      return label(kind, value("dt"), value("atol"));
-  }
-  return t;
-}
-
-std::string integrators_line(const Table& table) {
-  std::map<std::string, int> counts;
-  for (std::size_t r = 0; r < table.rows.size(); ++r)
-    ++counts[integrator_label(table, r)];
-  std::string out;
-  for (const auto& [label, count] : counts)
-    out += (out.empty() ? "" : ", ") + label + " (" + std::to_string(count) + ")";
-  return out;
-}
 
 std::vector<std::vector<std::string>> flagged_rows(const Table& table) {
   std::vector<std::vector<std::string>> flagged;

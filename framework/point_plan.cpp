@@ -1,4 +1,4 @@
-#include "studies/point_plan.hpp"
+#include "framework/point_plan.hpp"
 
 #include <cstdio>
 #include <cstdlib>

@@ -55,14 +55,6 @@ std::string sigma_text(double ours, double err, double seed);
 // The same with a statistical error and a systematic one (NaN: none) in quadrature.
 std::string sigma_text(double ours, double err, double sys, double seed);
 
-// An integrator as reports name it, from the table's integrator column (what the point ran):
-// the kind and its step ("respa dt 0.5"), RKC by its tolerance in units of delta = P at
-// constant pressure; in a table collected before that column existed, as the grid presets
-// choose it (studies/pressure_points.hpp integrator_for), or "?" at constant volume.
-std::string integrator_label(const Table& table, std::size_t r);
-// Every integrator of the table with its count of points: "rkc atol=0.1 delta (19), cvode (3)".
-std::string integrators_line(const Table& table);
-
 // The rows whose verdicts failed: {point, verdict, what the analysis does with it}, as
 // analysis/data.cpp decides (not steady or not stable: left out; not decorrelated: kept when
 // its errors include a replica scatter, from 3 replicas on, or 2 in an older table).
