@@ -310,8 +310,9 @@ CompareSection stability_section(const std::vector<CompareCaseOutcome>& cases) {
   std::string md =
       "## Summary (explicit Euler)\n\n"
       "Verdicts (the diagnostic window after each run; studies/stability/README.md): **diverged** "
-      "= the run stopped (non-finite values, negative volume), shown with the time and message, "
-      "never as numbers; **oscillating** = period-2 share of the force power above 5 % (force "
+      "= the run stopped (non-finite values, a negative volume, or an implicit solver that could "
+      "not advance: CVODE's CV_TOO_MUCH_WORK), shown with the time and message, never as "
+      "numbers; **oscillating** = period-2 share of the force power above 5 % (force "
       "step correlation < 0.9) or, for a fixed step, an energy balance below 1 by more than "
       "max(5 %, 3σ) (dissipation inflated); **lanes** = lane order ≥ 0.3; **incomplete** = "
       "stopped by the per-run budget (too slow for this preset, not a stability statement). A "
