@@ -1,5 +1,6 @@
 #include "framework/table_report.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -179,6 +180,108 @@ std::string kept_label(const Table& table, std::size_t r) {
 }
 
 }  // namespace
+
+std::string sweep_cost_markdown(const Table& table, const SweepStudy& run,
+                                const RowLabel& integrator_label, bool* measured) {
+  if (measured)
+    *measured = false;
+  struct Cost {
+    int points = 0;
+    double seconds = 0.0, particle_evaluations = 0.0, particle_time = 0.0;
+    double estimated_seconds = 0.0;  // the sweep's estimate (sweep::estimate_cost) of them
+  };
+  std::map<std::string, double> estimated_per_point;  // point name -> estimated CPU seconds
+  for (const auto& t : run.plan.tasks())              // Task::cost is in CPU seconds
+    estimated_per_point[run.plan.points[t.point].name] += t.cost;
+  std::map<std::string, Cost> by_kind;
+  Cost all;
+  std::string slowest;
+  double slowest_seconds = 0.0;
+  const bool has_cpu = table.column("cpu_seconds") >= 0;
+  const bool has_equivalents = table.column("force_pass_equivalents") >= 0;
+  std::size_t from_wall = 0;
+  for (std::size_t r = 0; r < table.rows.size(); ++r) {
+    const double n = table.number(r, "N");
+    const double wall = table.number(r, has_cpu ? "cpu_seconds" : "wall_seconds");
+    const double evals =
+        table.number(r, has_equivalents ? "force_pass_equivalents" : "force_evaluations");
+    if (!(wall > 0.0) || !(evals > 0.0))
+      continue;
+    from_wall += !has_cpu || table.number(r, "cpu_from_wall") > 0.5 ? 1 : 0;
+    const double reps = std::max(1.0, table.number(r, "replicas"));
+    const double t = table.number(r, "run.t_eq") + table.number(r, "run.t_av");
+    for (Cost* c : {&by_kind[integrator_label(table, r)], &all}) {
+      ++c->points;
+      c->estimated_seconds += estimated_per_point[table.text(r, "point")];
+      c->seconds += wall;
+      c->particle_evaluations += n * evals;
+      c->particle_time += std::isfinite(t) ? n * t * reps : 0.0;
+    }
+    if (wall > slowest_seconds) {
+      slowest_seconds = wall;
+      slowest = table.text(r, "point");
+    }
+  }
+  std::ostringstream md;
+  md << "\n## Cost\n\n";
+  if (all.points == 0) {
+    md << "The table has no cost columns (collected before they existed).\n";
+    return md.str();
+  }
+  if (measured)
+    *measured = true;
+  std::vector<std::vector<std::string>> rows;
+  auto row = [&](const std::string& name, const Cost& c) {
+    rows.push_back({name, std::to_string(c.points), num(c.seconds / 3600.0, 3),
+                    num(1e9 * c.seconds / c.particle_evaluations, 3),
+                    c.particle_time > 0.0 ? num(c.particle_evaluations / c.particle_time, 3) : "-",
+                    c.particle_time > 0.0 ? num(1e9 * c.seconds / c.particle_time, 3) : "-"});
+  };
+  for (const auto& [kind, c] : by_kind)
+    row(kind, c);
+  row("all", all);
+  md << "Measured from the point files: CPU time of each replica on one thread, on a 2-core "
+        "machine shared with other work; force evaluations are force-pass equivalents (CVODE's "
+        "Jacobian work included)";
+  if (from_wall > 0)
+    md << "; " << from_wall
+       << " points' files were written before CPU time (or force-pass equivalents) was "
+          "recorded and give their wall time (and force evaluations) instead";
+  md << ".\n\n"
+     << markdown_table({"integrator", "points", "CPU hours", "ns per particle force evaluation",
+                        "force evaluations per tau_0", "ns per particle per tau_0"},
+                       rows);
+  // Which integrator was cheaper here, from these numbers only (and only when more than one
+  // ran: the points of different integrators are at different state points, so this compares
+  // their costs where each ran, not at equal accuracy).
+  if (by_kind.size() > 1) {
+    std::string cheapest;
+    double best = 0.0;
+    for (const auto& [kind, c] : by_kind) {
+      if (c.particle_time <= 0.0)
+        continue;
+      const double v = 1e9 * c.seconds / c.particle_time;
+      if (cheapest.empty() || v < best) {
+        cheapest = kind;
+        best = v;
+      }
+    }
+    if (!cheapest.empty())
+      md << "\nPer particle and tau_0, " << cheapest << " cost least here (" << num(best, 3)
+         << " ns), over the points it ran (the integrators ran different state points).\n";
+  }
+  md << "\nThe most expensive point: " << slowest << ", " << num(slowest_seconds, 3)
+     << " CPU seconds over its replicas. The cost model (each integrator's measured CPU time "
+        "per particle and tau_0) estimates "
+     << num(run.cpu_hours_estimate, 3) << " CPU-hours for the sweep's " << run.plan.points.size()
+     << " points";
+  if (all.estimated_seconds > 0.0 && all.seconds > 0.0)
+    md << "; the " << all.points << " finished points took "
+       << num(all.seconds / all.estimated_seconds, 2) << " times their estimate ("
+       << num(all.estimated_seconds / 3600.0, 3) << " CPU-hours)";
+  md << ".\n";
+  return md.str();
+}
 
 std::vector<std::vector<std::string>> flagged_rows(const Table& table) {
   std::vector<std::vector<std::string>> flagged;

@@ -2,10 +2,13 @@
 // (sweep/collect.cpp) read back, its verdicts, its points as HDF5, and the comparison of a
 // fitted value with the seed's in sigma.
 #pragma once
+#include <cstddef>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "analysis/json.hpp"
+#include "framework/sweep_study.hpp"
 #include "lib/h5.hpp"
 #include "lib/table.hpp"
 
@@ -54,6 +57,19 @@ std::string with_systematic(double v, double e, double sys);
 std::string sigma_text(double ours, double err, double seed);
 // The same with a statistical error and a systematic one (NaN: none) in quadrature.
 std::string sigma_text(double ours, double err, double sys, double seed);
+
+// A row's label in a report, e.g. the integrator a point ran (studies/pressure_points.hpp
+// integrator_label).
+using RowLabel = std::function<std::string(const Table&, std::size_t)>;
+
+// The "## Cost" section of a sweep study's report, measured from its collected table: CPU time
+// (each replica on one thread) per integrator (`integrator_label` of each row), per particle
+// force-pass equivalent and per particle and tau_0, the most expensive point, and the finished
+// points against the sweep's cost-model estimate. A table collected before CPU time and
+// force-pass equivalents were recorded gives wall seconds and force evaluations instead (and the
+// text says so); one without cost columns gives a line saying so and `measured` (if given) false.
+std::string sweep_cost_markdown(const Table& table, const SweepStudy& run,
+                                const RowLabel& integrator_label, bool* measured = nullptr);
 
 // The rows whose verdicts failed: {point, verdict, what the analysis does with it}, as
 // analysis/data.cpp decides (not steady or not stable: left out; not decorrelated: kept when
