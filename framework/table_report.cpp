@@ -182,9 +182,9 @@ std::string kept_label(const Table& table, std::size_t r) {
 }  // namespace
 
 std::string sweep_cost_markdown(const Table& table, const SweepStudy& run,
-                                const RowLabel& integrator_label, bool* measured) {
-  if (measured)
-    *measured = false;
+                                const RowLabel& integrator_label, bool* has_cost) {
+  if (has_cost)
+    *has_cost = false;
   struct Cost {
     int points = 0;
     double seconds = 0.0, particle_evaluations = 0.0, particle_time = 0.0;
@@ -228,8 +228,8 @@ std::string sweep_cost_markdown(const Table& table, const SweepStudy& run,
     md << "The table has no cost columns (collected before they existed).\n";
     return md.str();
   }
-  if (measured)
-    *measured = true;
+  if (has_cost)
+    *has_cost = true;
   std::vector<std::vector<std::string>> rows;
   auto row = [&](const std::string& name, const Cost& c) {
     rows.push_back({name, std::to_string(c.points), num(c.seconds / 3600.0, 3),

@@ -67,9 +67,9 @@ using RowLabel = std::function<std::string(const Table&, std::size_t)>;
 // force-pass equivalent and per particle and tau_0, the most expensive point, and the finished
 // points against the sweep's cost-model estimate. A table collected before CPU time and
 // force-pass equivalents were recorded gives wall seconds and force evaluations instead (and the
-// text says so); one without cost columns gives a line saying so and `measured` (if given) false.
+// text says so); one without cost columns gives a line saying so and `has_cost` (if given) false.
 std::string sweep_cost_markdown(const Table& table, const SweepStudy& run,
-                                const RowLabel& integrator_label, bool* measured = nullptr);
+                                const RowLabel& integrator_label, bool* has_cost = nullptr);
 
 // The rows whose verdicts failed: {point, verdict, what the analysis does with it}, as
 // analysis/data.cpp decides (not steady or not stable: left out; not decorrelated: kept when

@@ -31,10 +31,10 @@ namespace {
 // The cost section (framework/table_report.hpp), and what the paper preset would need at the
 // measured rate.
 std::string cost_section(const std::string& study, const Table& table, const SweepStudy& run) {
-  bool measured = false;
+  bool has_cost = false;
   std::ostringstream md;
-  md << sweep_cost_markdown(table, run, integrator_label, &measured);
-  if (!measured)
+  md << sweep_cost_markdown(table, run, integrator_label, &has_cost);
+  if (!has_cost)
     return md.str();
   try {
     const GridPreset paper =
