@@ -602,8 +602,10 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
         const Measured a = ex.fit->at(1);
         const double z = std::fabs(a.value) / a.error;
         ex.resolved = z > options.resolved_amplitude_sigma;
-        ex.resolution = "A = " + fmt(a.value) + " +- " + fmt(a.error) + " (" + fmt(z) +
-                        " sigma from 0) over " + std::to_string(n_sizes) + " sizes" +
+        char z_text[16];
+        std::snprintf(z_text, sizeof z_text, "%.1f", z);
+        ex.resolution = "A = " + format_measured(a) + " (" + z_text + " sigma from 0) over " +
+                        std::to_string(n_sizes) + " sizes" +
                         (ex.resolved ? ": resolved"
                                      : ": not resolved (needs |A| > " +
                                            fmt(options.resolved_amplitude_sigma) + " sigma)");
