@@ -183,7 +183,7 @@ def fig7():
     w0, w1 = data["viscosity"]["window"]
     ax.axvspan(phi_j - w1, phi_j - w0, color="0.9", zorder=0, label="exponent window")
     ax.set(xscale="log", yscale="log", xlabel=r"$\varphi_J - \varphi$", ylabel=r"$\eta / \eta_0$",
-           title="hard-sphere envelope points; small N deviate (finite size)")
+           title="hard-sphere envelope points; phi_J and Eq. (eta): " + data["viscosity"]["source"])
     ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(prefix + "_fig7.png", dpi=110)
