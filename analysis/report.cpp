@@ -617,6 +617,12 @@ Json hard_sphere_plot_data(const HardSphereResult& r) {
     }
   }
   j["extrapolated"] = ex;
+  // Which of them are N -> infinity results (hard_sphere.cpp: a fit whose A_O differs from 0
+  // by more than the rule's sigmas); the plots say so rather than draw an unresolved fit as one.
+  Json resolved = Json::object();
+  for (const auto& e : r.extrapolations)
+    resolved[e.parameter] = e.resolved;
+  j["extrapolation_resolved"] = resolved;
   Json table = Json::object();
   for (const auto& name : hard_sphere_parameters()) {
     const auto& t = seed::table2(name);

@@ -98,9 +98,11 @@ def fig5():
         e = np.array([s["params"][name][1] for s in sizes])
         ax.errorbar(ns, v, yerr=e, fmt="o", color="C0")
         ex = data["extrapolated"].get(name)
+        resolved = data.get("extrapolation_resolved", {}).get(name, True)
         if ex is not None and len(ex) == 3:
             inf, a, alpha = ex
-            ax.plot(nn, inf + a * nn ** -alpha, "C0-", label="fit")
+            ax.plot(nn, inf + a * nn ** -alpha, "C0-" if resolved else "C0--",
+                    label="fit" if resolved else "fit, not resolved (A_O not distinct from 0)")
             ax.axhline(inf, color="C0", lw=0.6, ls=":")
         elif ex is not None:  # exponent not resolved: only O_inf
             ax.axhline(ex[0], color="C0", lw=1, ls=":", label=r"$O_\infty$ only (A, alpha not resolved)")
@@ -119,6 +121,9 @@ def fig6():
     ex = data["extrapolated"]
     # Needs A and alpha of phi_J and mu_J, and the N -> infinity b and C.
     if not all(k in ex for k in NAMES) or len(ex["phi_J"]) != 3 or len(ex["mu_J"]) != 3:
+        return False
+    resolved = data.get("extrapolation_resolved", {})
+    if not (resolved.get("phi_J", True) and resolved.get("mu_J", True)):
         return False
     fig, axes = plt.subplots(2, 2, figsize=(10, 8))
     cols = colours(plt, len(sizes))

@@ -19,6 +19,8 @@
 #include "analysis/collapse.hpp"
 #include "analysis/errors.hpp"
 #include "analysis/hard_sphere.hpp"
+#include "analysis/json.hpp"
+#include "analysis/report.hpp"
 #include "tests/analysis/synthetic.hpp"
 
 namespace jamflow::analysis {
@@ -316,6 +318,24 @@ TEST(HardSphere, SizesThatCannotBeFittedAreReportedNotThrown) {
   EXPECT_EQ(none.failures.size(), 2u);
   EXPECT_FALSE(none.viscosity.has_value());
   EXPECT_FALSE(none.collapse_phi.unavailable.empty());
+}
+
+// The plots draw a size fit as an N -> infinity result only when the analysis resolved it: the
+// plot data carry each parameter's verdict, and it follows the result, not the fit's status.
+TEST(HardSphere, PlotDataSayWhichExtrapolationsAreResolved) {
+  GranularSpec spec;
+  spec.sizes = {100, 300, 500, 1000, 3000, 10000};
+  HardSphereResult r = analyze_hard_sphere(make_granular(spec), HardSphereOptions{});
+  ASSERT_EQ(r.extrapolations.size(), 6u);
+  ASSERT_EQ(r.extrapolations[0].parameter, "phi_J");
+  ASSERT_TRUE(r.extrapolations[0].resolved) << r.extrapolations[0].resolution;
+  const Json resolved = hard_sphere_plot_data(r).at("extrapolation_resolved");
+  for (const auto& e : r.extrapolations)
+    EXPECT_EQ(resolved.at(e.parameter).as_bool(), e.resolved) << e.parameter;
+  // The same fit judged not resolved (as when A_O is within the rule's sigmas of 0).
+  r.extrapolations[0].resolved = false;
+  EXPECT_FALSE(hard_sphere_plot_data(r).at("extrapolation_resolved").at("phi_J").as_bool());
+  EXPECT_TRUE(hard_sphere_plot_data(r).at("extrapolated").contains("phi_J"));  // still drawn
 }
 
 TEST(Extrapolation, StatusFollowsWhatTheDataResolve) {
