@@ -19,9 +19,9 @@ namespace jamflow::analysis {
 
 namespace {
 
-std::string fmt(double x) {
+std::string fmt(double x, const char* f = "%.6g") {
   char buf[40];
-  std::snprintf(buf, sizeof buf, "%.6g", x);
+  std::snprintf(buf, sizeof buf, f, x);
   return buf;
 }
 
@@ -602,10 +602,8 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
         const Measured a = ex.fit->at(1);
         const double z = std::fabs(a.value) / a.error;
         ex.resolved = z > options.resolved_amplitude_sigma;
-        char z_text[16];
-        std::snprintf(z_text, sizeof z_text, "%.1f", z);
-        ex.resolution = "A = " + format_measured(a) + " (" + z_text + " sigma from 0) over " +
-                        std::to_string(n_sizes) + " sizes" +
+        ex.resolution = "A = " + format_measured(a) + " (" + fmt(z, "%.1f") +
+                        " sigma from 0) over " + std::to_string(n_sizes) + " sizes" +
                         (ex.resolved ? ": resolved"
                                      : ": not resolved (needs |A| > " +
                                            fmt(options.resolved_amplitude_sigma) + " sigma)");
