@@ -183,6 +183,17 @@ std::string format_measured(const Measured& m) {
   return fmt(v, "%.4e") + " ± " + fmt(e, "%.2e");
 }
 
+std::string markdown_cell(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (const char c : text) {
+    if (c == '|')
+      out += '\\';
+    out += c;
+  }
+  return out;
+}
+
 // --- hard sphere -------------------------------------------------------------
 
 namespace {
@@ -1278,7 +1289,7 @@ std::string olsson_teitel_markdown(const OlssonTeitelResult& r, const OlssonTeit
         "| S rest (subset opt.) | S rest (global opt.) | trade-off |\n";
   md << "|---|---|---|---|---|---|---|---|---|---|\n";
   for (const auto& s : r.subsets) {
-    md << "| " << s.name << " (" << s.description << ") | " << s.indices.size();
+    md << "| " << s.name << " (" << markdown_cell(s.description) << ") | " << s.indices.size();
     if (!s.fit) {
       md << " | skipped: " << s.skipped << " | | | | | | | |\n";
       continue;

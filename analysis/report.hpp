@@ -24,6 +24,10 @@ Json error_model_json(const ErrorModel& m);
 // "0.6474 ± 0.0012" with the error to two significant digits.
 std::string format_measured(const Measured& m);
 
+// Text for one markdown table cell: a '|' (as in "|t| <= 4") is escaped, so that it does not
+// split the cell.
+std::string markdown_cell(const std::string& text);
+
 Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
                       const std::vector<std::string>& inputs);
 std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOptions& o,

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "analysis/plots.hpp"
+#include "analysis/report.hpp"
 #include "lib/data_files.hpp"
 #include "lib/error.hpp"
 #include "lib/text_file.hpp"
@@ -21,7 +22,7 @@ std::string markdown_table(const std::vector<std::string>& header,
   std::ostringstream os;
   os << "|";
   for (const auto& h : header)
-    os << " " << h << " |";
+    os << " " << analysis::markdown_cell(h) << " |";
   os << "\n|";
   for (std::size_t k = 0; k < header.size(); ++k)
     os << "---|";
@@ -29,7 +30,7 @@ std::string markdown_table(const std::vector<std::string>& header,
   for (const auto& r : rows) {
     os << "|";
     for (const auto& c : r)
-      os << " " << c << " |";
+      os << " " << analysis::markdown_cell(c) << " |";
     os << "\n";
   }
   return os.str();

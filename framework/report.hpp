@@ -9,7 +9,8 @@
 
 namespace jamflow::studies {
 
-// A markdown table: header names, then rows of already formatted cells.
+// A markdown table: header names, then rows of already formatted cells. A '|' in a cell (as in
+// "|t| <= 4") is escaped, so that it does not split the cell.
 std::string markdown_table(const std::vector<std::string>& header,
                            const std::vector<std::vector<std::string>>& rows);
 

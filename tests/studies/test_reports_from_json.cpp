@@ -196,6 +196,26 @@ TEST(ReportsFromJson, FiniteSizeInfinityVerdictCarriesItsSystematic) {
   EXPECT_EQ(large.find("disagrees"), std::string::npos) << large;
 }
 
+// A '|' in a cell's text (as in "needs |A| > 2 sigma") is escaped: the row keeps its five cells.
+TEST(ReportsFromJson, APipeInACellDoesNotSplitIt) {
+  GridInputs in;
+  load_grid(in, "finite-size");
+  Json result = in.result;
+  Json ex = result.at("extrapolated");
+  Json pe = ex.at("phi_J");
+  pe["resolved"] = false;
+  pe["resolution"] = "A = -0.4 ± 1.2: not resolved (needs |A| > 2 sigma)";
+  ex["phi_J"] = pe;
+  result["extrapolated"] = ex;
+  const std::string row = line_starting(grid_report("finite-size", in, result), "| phi_J | - |");
+  ASSERT_FALSE(row.empty());
+  int delimiters = 0;
+  for (std::size_t k = 0; k < row.size(); ++k)
+    delimiters += row[k] == '|' && (k == 0 || row[k - 1] != '\\');
+  EXPECT_EQ(delimiters, 6) << row;
+  EXPECT_NE(row.find("needs \\|A\\| > 2 sigma"), std::string::npos) << row;
+}
+
 // The integrators the header and the cost table name are those of the table's integrator column,
 // RKC by its tolerance in units of delta = P: a row that ran at ten times the tolerance is named
 // apart, and counted apart.
