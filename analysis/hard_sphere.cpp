@@ -386,6 +386,41 @@ ViscosityLaw viscosity_law(std::vector<double> params, std::vector<double> covar
   return law;
 }
 
+SizeSensitivity size_sensitivity(double a, double alpha, const std::vector<double>& sizes,
+                                 const std::vector<double>& errors, double threshold_sigma) {
+  SizeSensitivity s;
+  s.a = a;
+  s.alpha = alpha;
+  // F = J^T W J for the parameters (O_inf, A, alpha): dO/dO_inf = 1, dO/dA = N^-alpha,
+  // dO/dalpha = -A ln N N^-alpha.
+  double f[3][3] = {{0.0}};
+  for (std::size_t i = 0; i < sizes.size() && i < errors.size(); ++i) {
+    const double u = std::pow(sizes[i], -alpha);
+    const double g[3] = {1.0, u, -a * std::log(sizes[i]) * u};
+    const double w = 1.0 / (errors[i] * errors[i]);
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c)
+        f[r][c] += w * g[r] * g[c];
+  }
+  // The diagonal of F^-1 from its cofactors.
+  const double det = f[0][0] * (f[1][1] * f[2][2] - f[1][2] * f[2][1]) -
+                     f[0][1] * (f[1][0] * f[2][2] - f[1][2] * f[2][0]) +
+                     f[0][2] * (f[1][0] * f[2][1] - f[1][1] * f[2][0]);
+  const double var_a = (f[0][0] * f[2][2] - f[0][2] * f[2][0]) / det;
+  const double var_alpha = (f[0][0] * f[1][1] - f[0][1] * f[1][0]) / det;
+  if (!(std::isfinite(det) && det > 0.0 && var_a > 0.0 && var_alpha > 0.0))
+    return s;
+  s.sigma_a = std::sqrt(var_a);
+  s.sigma_alpha = std::sqrt(var_alpha);
+  s.z = std::fabs(a) / s.sigma_a;
+  s.power =
+      gsl_cdf_ugaussian_P(s.z - threshold_sigma) + gsl_cdf_ugaussian_P(-s.z - threshold_sigma);
+  // The far tail (an A of the wrong sign beyond the threshold) is left out: at the target power
+  // it is below 1e-3.
+  s.error_scale = s.z / (threshold_sigma + gsl_cdf_ugaussian_Pinv(SizeSensitivity::kTargetPower));
+  return s;
+}
+
 Extrapolation extrapolate_in_size(const std::string& parameter, const std::vector<double>& sizes,
                                   const std::vector<double>& values,
                                   const std::vector<double>& errors, const FitOptions& options) {
@@ -589,6 +624,10 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
       fo.scale_errors_by_chi2 = options.scale_errors;
       fo.label = name + "(N) = " + name + "_inf + A N^-alpha";
       Extrapolation ex = extrapolate_in_size(name, ns, vs, es, fo);
+      const seed::SizeLaw& law = seed::table2(name);
+      if (ns.size() >= 3)
+        ex.sensitivity =
+            size_sensitivity(law.a, law.alpha, ns, es, options.resolved_amplitude_sigma);
       for (const auto& s : r.sizes) {
         const ErrorModel& em = name.find("phi") != std::string::npos ? s.phi_errors : s.mu_errors;
         for (const auto& pe : em.parameters) {

@@ -113,6 +113,27 @@ struct SizeFit {
 // The six parameters, in the order of Table 2.
 const std::vector<std::string>& hard_sphere_parameters();
 
+// What the sizes could resolve: were a parameter to follow a size law O_inf + A N^-alpha exactly
+// (the seed's Table 2 column), at these sizes with these errors, the linearized (Fisher) errors
+// of A and alpha of the fit, and the chance that the resolution rule (|A| > threshold sigma)
+// is met, in the normal approximation. This tells a "not resolved" the data could not avoid
+// from one that speaks against the law. alpha's error bounds that of nu = b / (alpha d) from
+// below: sigma_nu / nu >= sigma_alpha / alpha.
+struct SizeSensitivity {
+  double a = 0.0, alpha = 0.0;  // the law's
+  double sigma_a = std::numeric_limits<double>::quiet_NaN();
+  double sigma_alpha = std::numeric_limits<double>::quiet_NaN();
+  double z = std::numeric_limits<double>::quiet_NaN();      // |A| / sigma_A
+  double power = std::numeric_limits<double>::quiet_NaN();  // P(|A_fit| > threshold sigma_A)
+  // The factor on every size's error that gives the rule a chance of kTargetPower (the
+  // Fisher errors scale with the data's; replicas as its inverse square).
+  double error_scale = std::numeric_limits<double>::quiet_NaN();
+  static constexpr double kTargetPower = 0.8;
+};
+// NaN fields when the Fisher matrix is singular (fewer than 3 distinct sizes, a zero A).
+SizeSensitivity size_sensitivity(double a, double alpha, const std::vector<double>& sizes,
+                                 const std::vector<double>& errors, double threshold_sigma);
+
 // Large-N extrapolation of one parameter, O(N) = O_inf + A N^-alpha.
 // With a handful of sizes the exponent is often not resolved: when the
 // profile chi2(alpha) (O_inf and A fitted for each alpha) keeps decreasing as
@@ -146,6 +167,8 @@ struct Extrapolation {
   // taken as common to all sizes, which moves O_inf by as much and leaves A_O and alpha_O; NaN
   // where no size has one.
   double systematic = std::numeric_limits<double>::quiet_NaN();
+  // At the seed's Table 2 law of this parameter, with the sizes' errors the fit used.
+  std::optional<SizeSensitivity> sensitivity;
 };
 
 // Exposed for tests: sizes, values and errors of one parameter.

@@ -377,6 +377,26 @@ Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
       je["inf"]["systematic"] = number_or_null(e.systematic);
     je["resolved"] = e.resolved;
     je["resolution"] = e.resolution;
+    if (e.sensitivity) {
+      const SizeSensitivity& sv = *e.sensitivity;
+      Json js = Json::object();
+      js["law"] = "seed Table 2";
+      js["A"] = sv.a;
+      js["alpha"] = sv.alpha;
+      js["sigma_A"] = number_or_null(sv.sigma_a);
+      js["sigma_alpha"] = number_or_null(sv.sigma_alpha);
+      js["A_over_sigma"] = number_or_null(sv.z);
+      js["chance_resolved"] = number_or_null(sv.power);
+      js["error_scale_for_target"] = number_or_null(sv.error_scale);
+      js["target_chance"] = SizeSensitivity::kTargetPower;
+      js["threshold_sigma"] = o.resolved_amplitude_sigma;
+      js["note"] =
+          "Fisher (linearized) errors of A and alpha were the sizes to follow the law exactly, "
+          "with the errors the fit used; chance of |A| > threshold sigma in the normal "
+          "approximation; error_scale_for_target: the factor on every size's error that gives "
+          "that chance target_chance (replicas: its inverse square)";
+      je["sensitivity"] = js;
+    }
     ex[e.parameter] = je;
   }
   j["extrapolated"] = ex;
@@ -398,6 +418,37 @@ Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
   j["failures"] = strings_json(r.failures);
   return j;
 }
+
+namespace {
+
+// What these sizes could resolve, were the parameters to follow the seed's Table 2 laws.
+std::string sensitivity_markdown(const HardSphereResult& r, const HardSphereOptions& o) {
+  std::ostringstream md;
+  bool any = false;
+  for (const auto& e : r.extrapolations)
+    any = any || (e.sensitivity && std::isfinite(e.sensitivity->sigma_a));
+  if (!any)
+    return {};
+  md << "What these sizes could resolve: were each parameter to follow Table 2's law exactly, "
+        "at these sizes with the errors the fits used (Fisher errors; chance in the normal "
+        "approximation):\n\n";
+  md << "| O | paper A_O | sigma_A | A_O/sigma_A | chance A_O resolved (> "
+     << fmt(o.resolved_amplitude_sigma) << " sigma) | errors x for "
+     << fmt(SizeSensitivity::kTargetPower) << " | sigma_alpha (paper alpha_O) |\n";
+  md << "|---|---|---|---|---|---|---|\n";
+  for (const auto& e : r.extrapolations) {
+    if (!e.sensitivity || !std::isfinite(e.sensitivity->sigma_a))
+      continue;
+    const SizeSensitivity& s = *e.sensitivity;
+    md << "| " << e.parameter << " | " << fmt(s.a) << " | " << fmt(s.sigma_a, "%.2g") << " | "
+       << fmt(s.z, "%.2g") << " | " << fmt(s.power, "%.2f") << " | " << fmt(s.error_scale, "%.2g")
+       << " | " << fmt(s.sigma_alpha, "%.2g") << " (" << fmt(s.alpha) << ") |\n";
+  }
+  md << "\n";
+  return md.str();
+}
+
+}  // namespace
 
 std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOptions& o,
                                  const std::vector<std::string>& inputs) {
@@ -492,6 +543,7 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
           "error and alpha only a lower bound. 'no significant N-dependence': a constant fits; "
           "O_inf is the weighted mean. O_inf 'not resolved': no convergence with N, O_inf "
           "undetermined.)\n\n";
+    md << sensitivity_markdown(r, o);
   }
   md << "## Correlation-length exponent nu = b / (alpha_O d), d = " << o.dimension << "\n\n";
   md << "| from | nu | paper |\n|---|---|---|\n";

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <functional>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
@@ -49,6 +50,65 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
           "study's).\n";
   } catch (const std::exception& e) {
     md << "\n(The paper preset could not be estimated: " << e.what() << ")\n";
+  }
+  return md.str();
+}
+
+// What the sizes could resolve (analysis.json `extrapolated.<O>.sensitivity`): the chance that
+// the resolution rule is met were every parameter to follow the seed's Table 2 law, and nu's
+// best precision from alpha_O's error.
+std::string sensitivity_markdown(const analysis::Json& ex) {
+  const auto number = [](const analysis::Json& j, const char* key) {
+    return j.contains(key) && j.at(key).is_number() ? j.at(key).as_number()
+                                                    : std::numeric_limits<double>::quiet_NaN();
+  };
+  std::vector<std::vector<std::string>> rows;
+  std::vector<std::string> nu;
+  double threshold = std::numeric_limits<double>::quiet_NaN();
+  double target = threshold;
+  for (const seed::SizeLaw& law : seed::kTable2) {
+    const std::string p(law.name);
+    if (!ex.contains(p) || !ex.at(p).contains("sensitivity"))
+      continue;
+    const auto& sv = ex.at(p).at("sensitivity");
+    const double z = number(sv, "A_over_sigma"), chance = number(sv, "chance_resolved");
+    const double scale = number(sv, "error_scale_for_target");
+    const double sa = number(sv, "sigma_alpha"), alpha = number(sv, "alpha");
+    if (!std::isfinite(z) || !std::isfinite(chance) || !std::isfinite(scale))
+      continue;
+    threshold = number(sv, "threshold_sigma");
+    target = number(sv, "target_chance");
+    rows.push_back(
+        {p, num(number(sv, "A"), 3), num(z, 2), num(chance, 2),
+         scale >= 1.0 ? std::string("-")
+                      : num(1.0 / scale, 2) + " (replicas x " + num(1.0 / (scale * scale), 2) + ")",
+         num(sa, 2) + " (" + num(alpha, 3) + ")"});
+    if ((p == "phi_J" || p == "mu_J") && std::isfinite(sa) && alpha > 0.0) {
+      const std::string from = "from " + p.substr(0, p.size() - 2);
+      nu.push_back(sa < alpha ? "±" + num(100.0 * sa / alpha, 2) + "% " + from
+                              : "not at all " + from + " (sigma_alpha_O " + num(sa, 2) +
+                                    " exceeds alpha_O)");
+    }
+  }
+  if (rows.empty())
+    return {};
+  std::ostringstream md;
+  md << "\nWhat these sizes could resolve: were every parameter to follow the seed's Table 2 law "
+        "exactly, at these sizes with the errors the fits used, the rule (|A_O| > "
+     << num(threshold, 2)
+     << " sigma) would be met with the chances below (Fisher errors of the fit, normal "
+        "approximation, which leaves out the test for a constant and the chi2 scaling of the "
+        "errors, both of which lower the chance; analysis.json `sensitivity`). The last but one "
+        "column is how much smaller every size's error would have to be for a chance of "
+     << num(target, 2) << ".\n\n"
+     << markdown_table({"parameter", "seed A_O", "seed A_O / sigma_A", "chance of resolving",
+                        "errors smaller by", "sigma_alpha_O (seed alpha_O)"},
+                       rows);
+  if (!nu.empty()) {
+    md << "\nEven resolved, these sizes would give nu = b / (alpha_O d) no better than ";
+    for (std::size_t k = 0; k < nu.size(); ++k)
+      md << (k ? "; " : "") << nu[k];
+    md << ". That is alpha_O's relative error alone.\n";
   }
   return md.str();
 }
@@ -355,6 +415,7 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
             "same N, are the results.\n\n"
          << markdown_table({"parameter", "jamflow O_inf", "seed O_inf", "difference", "resolution"},
                            rows);
+      md << sensitivity_markdown(ex);
     }
   }
   if (result.is_object() && result.contains("nu")) {

@@ -149,6 +149,21 @@ std::string table2_section(const fs::path& analysis) {
      << " parameters have a resolved N -> infinity extrapolation; for the others the "
         "finite-size report gives the per-N fits beside the seed's law at the same N.\n\n";
   md << markdown_table({"parameter", "jamflow", "seed", "difference", "resolution"}, rows);
+  // What the sizes could resolve at all (analysis.json `sensitivity`), for the two that give nu.
+  std::vector<std::string> chances;
+  for (const char* name : {"phi_J", "mu_J"}) {
+    if (!ex.contains(name) || !ex.at(name).contains("sensitivity"))
+      continue;
+    const auto& sv = ex.at(name).at("sensitivity");
+    if (sv.contains("chance_resolved") && sv.at("chance_resolved").is_number())
+      chances.push_back(std::string(name) + " " + num(sv.at("chance_resolved").as_number(), 2));
+  }
+  if (!chances.empty())
+    md << "\nWere the seed's Table 2 law true, these sizes and errors would resolve A_O with a "
+          "chance of "
+       << join(chances)
+       << " in the normal approximation (finite-size/report.md, \"What these sizes could "
+          "resolve\").\n";
   return md.str();
 }
 

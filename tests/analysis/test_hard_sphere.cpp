@@ -21,6 +21,7 @@
 #include "analysis/hard_sphere.hpp"
 #include "analysis/json.hpp"
 #include "analysis/report.hpp"
+#include "analysis/seed.hpp"
 #include "tests/analysis/synthetic.hpp"
 
 namespace jamflow::analysis {
@@ -184,6 +185,12 @@ TEST(HardSphere, FullAnalysisRecoversTable2AndNu) {
   }
   // alpha of the phi_J and mu_J extrapolations (well determined: large A).
   expect_within(r.extrapolations[0].fit->at(2), 0.852, 5, "alpha_phi_J");
+  // Each extrapolation says what the sizes could resolve at the seed's law of its parameter.
+  for (const Extrapolation& e : r.extrapolations) {
+    ASSERT_TRUE(e.sensitivity.has_value()) << e.parameter;
+    EXPECT_EQ(e.sensitivity->a, seed::table2(e.parameter).a) << e.parameter;
+    EXPECT_TRUE(std::isfinite(e.sensitivity->power)) << e.parameter;
+  }
   expect_within(r.extrapolations[3].fit->at(2), 0.626, 5, "alpha_mu_J");
   ASSERT_TRUE(r.nu_phi && r.nu_mu) << [&] {
     std::string w;
@@ -374,6 +381,83 @@ TEST(Extrapolation, StatusFollowsWhatTheDataResolve) {
       extrapolate_in_size("phi_J", {100, 300, 1000}, {0.64, 0.645, 0.646}, {1e-4, 1e-4, 1e-4}, o);
   EXPECT_EQ(few.status, Status::kFailed);
   EXPECT_NE(few.message.find("at least 4"), std::string::npos) << few.message;
+}
+
+// The sensitivity's Fisher errors are those of the fit itself: on data that follow the law
+// exactly, the fit's covariance (Gauss-Newton at zero residuals) is the inverse Fisher matrix;
+// they scale with the data's errors; and the error scale it names gives the target chance.
+TEST(SizeSensitivity, FisherErrorsAreTheFitsAndScaleWithTheData) {
+  const std::vector<double> sizes = {100, 300, 500, 1000, 3000, 10000};
+  const std::vector<double> err = {2e-3, 1e-3, 8e-4, 5e-4, 4e-4, 3e-4};
+  const double a = -0.323, alpha = 0.852;
+  std::vector<double> exact;
+  for (double n : sizes)
+    exact.push_back(0.6474 + a * std::pow(n, -alpha));
+  FitOptions o;
+  o.label = "phi_J(N)";
+  const Extrapolation ex = extrapolate_in_size("phi_J", sizes, exact, err, o);
+  ASSERT_EQ(ex.status, Extrapolation::Status::kFit) << ex.message;
+  const SizeSensitivity s = size_sensitivity(a, alpha, sizes, err, 2.0);
+  EXPECT_NEAR(s.sigma_a, std::sqrt(ex.fit->cov(1, 1)), 1e-6 * s.sigma_a);
+  EXPECT_NEAR(s.sigma_alpha, std::sqrt(ex.fit->cov(2, 2)), 1e-6 * s.sigma_alpha);
+  EXPECT_NEAR(s.z, std::fabs(a) / s.sigma_a, 1e-12);
+  // Half the errors, half the Fisher errors.
+  std::vector<double> half;
+  for (double e : err)
+    half.push_back(0.5 * e);
+  const SizeSensitivity h = size_sensitivity(a, alpha, sizes, half, 2.0);
+  EXPECT_NEAR(h.sigma_a, 0.5 * s.sigma_a, 1e-9 * s.sigma_a);
+  EXPECT_NEAR(h.sigma_alpha, 0.5 * s.sigma_alpha, 1e-9 * s.sigma_alpha);
+  EXPECT_GT(h.power, s.power);
+  // The named error scale gives the target chance (the far tail left out is below 1e-3).
+  std::vector<double> scaled;
+  for (double e : err)
+    scaled.push_back(s.error_scale * e);
+  EXPECT_NEAR(size_sensitivity(a, alpha, sizes, scaled, 2.0).power, SizeSensitivity::kTargetPower,
+              1e-3);
+  // No amplitude: only the chance of a false resolution, 2 Phi(-2) = 0.0455.
+  const SizeSensitivity zero = size_sensitivity(0.0, alpha, sizes, err, 2.0);
+  EXPECT_FALSE(std::isfinite(zero.sigma_a));  // dO/dalpha vanishes: singular
+  const SizeSensitivity tiny = size_sensitivity(1e-9, alpha, sizes, err, 2.0);
+  EXPECT_NEAR(tiny.power, 0.0455, 1e-3);
+}
+
+// The forecast is the scatter the fit shows: over 300 noisy draws of the law (errors not scaled
+// by chi2, small enough for the linear regime), the standard deviation of the fitted A and alpha
+// is the Fisher error within 15% (the relative error of a standard deviation from 300 draws is
+// 1/sqrt(600) = 4%, so 15% is about 3.5 of its sigma).
+TEST(SizeSensitivity, ForecastIsTheScatterOfRepeatedFits) {
+  const std::vector<double> sizes = {100, 300, 500, 1000, 3000, 10000};
+  const std::vector<double> err = {1e-4, 5e-5, 4e-5, 2.5e-5, 2e-5, 1.5e-5};
+  const double a = -0.323, alpha = 0.852;
+  const SizeSensitivity s = size_sensitivity(a, alpha, sizes, err, 2.0);
+  ASSERT_GT(s.z, 5.0);  // the linear regime
+  FitOptions o;
+  o.label = "phi_J(N)";
+  o.scale_errors_by_chi2 = false;
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  double sa = 0.0, saa = 0.0, sl = 0.0, sll = 0.0;
+  int fits = 0;
+  for (int k = 0; k < 300; ++k) {
+    std::vector<double> v;
+    for (std::size_t i = 0; i < sizes.size(); ++i)
+      v.push_back(0.6474 + a * std::pow(sizes[i], -alpha) + err[i] * noise(rng));
+    const Extrapolation ex = extrapolate_in_size("phi_J", sizes, v, err, o);
+    if (ex.status != Extrapolation::Status::kFit)
+      continue;
+    const double fa = ex.fit->params[1], fl = ex.fit->params[2];
+    sa += fa;
+    saa += fa * fa;
+    sl += fl;
+    sll += fl * fl;
+    ++fits;
+  }
+  ASSERT_GE(fits, 290);
+  const double sd_a = std::sqrt(saa / fits - std::pow(sa / fits, 2));
+  const double sd_alpha = std::sqrt(sll / fits - std::pow(sl / fits, 2));
+  EXPECT_NEAR(sd_a / s.sigma_a, 1.0, 0.15);
+  EXPECT_NEAR(sd_alpha / s.sigma_alpha, 1.0, 0.15);
 }
 
 TEST(HardSphere, FewerThanFourSizesSkipTheExtrapolationExplicitly) {

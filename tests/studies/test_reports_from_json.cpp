@@ -196,6 +196,46 @@ TEST(ReportsFromJson, FiniteSizeInfinityVerdictCarriesItsSystematic) {
   EXPECT_EQ(large.find("disagrees"), std::string::npos) << large;
 }
 
+// What the sizes could resolve is read from the JSON's sensitivity: its chance, its error scale
+// (shown as how much smaller the errors must be, and the replicas that takes) and alpha_O's
+// error, which bounds nu's precision.
+TEST(ReportsFromJson, FiniteSizeSensitivityComesFromTheJson) {
+  GridInputs in;
+  load_grid(in, "finite-size");
+  ASSERT_TRUE(in.result.contains("extrapolated"));
+  ASSERT_TRUE(in.result.at("extrapolated").contains("phi_J"));
+  const auto report_with = [&](double z, double chance, double scale, double sigma_alpha) {
+    Json result = in.result;
+    Json sv = Json::object();
+    sv["A"] = seed::table2("phi_J").a;
+    sv["alpha"] = seed::table2("phi_J").alpha;
+    sv["A_over_sigma"] = z;
+    sv["chance_resolved"] = chance;
+    sv["error_scale_for_target"] = scale;
+    sv["sigma_alpha"] = sigma_alpha;
+    sv["threshold_sigma"] = 2.0;
+    sv["target_chance"] = 0.8;
+    Json ex = result.at("extrapolated");
+    Json pe = ex.at("phi_J");
+    pe["sensitivity"] = sv;
+    ex["phi_J"] = pe;
+    result["extrapolated"] = ex;
+    return grid_report("finite-size", in, result);
+  };
+  const std::string low = report_with(0.52, 0.075, 0.18, 0.41);
+  const std::string high = report_with(3.5, 0.93, 1.23, 0.1);
+  EXPECT_NE(
+      line_starting(low, "| phi_J | -0.323 | 0.52 | 0.075 | 5.6 (replicas x 31) | 0.41 (0.852) |")
+          .size(),
+      0u)
+      << low;
+  EXPECT_NE(low.find("no better than ±48% from phi"), std::string::npos) << low;
+  // Errors already small enough: nothing to shrink.
+  EXPECT_NE(line_starting(high, "| phi_J | -0.323 | 3.5 | 0.93 | - | 0.1 (0.852) |").size(), 0u)
+      << high;
+  EXPECT_NE(high.find("no better than ±12% from phi"), std::string::npos) << high;
+}
+
 // A '|' in a cell's text (as in "needs |A| > 2 sigma") is escaped: the row keeps its five cells.
 TEST(ReportsFromJson, APipeInACellDoesNotSplitIt) {
   GridInputs in;
