@@ -256,6 +256,8 @@ Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
   j["point_errors"] = point_errors_json(r.point_errors);
   Json opts = Json::object();
   opts["envelope_z"] = o.envelope.z;
+  opts["min_sizes_for_extrapolation"] = static_cast<std::int64_t>(o.min_sizes_for_extrapolation);
+  opts["resolved_amplitude_sigma"] = o.resolved_amplitude_sigma;
   opts["scale_errors"] = o.scale_errors;
   opts["dimension"] = o.dimension;
   j["options"] = opts;

@@ -15,6 +15,7 @@
 #include <tuple>
 
 #include "analysis/analyze_cli.hpp"
+#include "analysis/hard_sphere.hpp"
 #include "analysis/json.hpp"
 #include "analysis/seed.hpp"
 #include "framework/table_report.hpp"
@@ -407,10 +408,20 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
           rows.push_back({p, "-", num(law.inf, 4), "-", why});
         }
       }
+      // The rule's numbers from the analysis' options (older JSON: the defaults).
+      const auto option = [&](const char* key, double fallback) {
+        if (result.contains("options") && result.at("options").contains(key) &&
+            result.at("options").at(key).is_number())
+          return result.at("options").at(key).as_number();
+        return fallback;
+      };
+      const analysis::HardSphereOptions defaults;
       md << "An N -> infinity value is given only where the extrapolation O(N) = O_inf + A_O "
-            "N^-alpha_O is resolved: a power-law fit over at least 4 sizes whose A_O differs from "
-            "0 by more than 2 sigma. "
-         << resolved << " of " << rows.size()
+            "N^-alpha_O is resolved: a power-law fit over at least "
+         << num(option("min_sizes_for_extrapolation", defaults.min_sizes_for_extrapolation), 3)
+         << " sizes whose A_O differs from 0 by more than "
+         << num(option("resolved_amplitude_sigma", defaults.resolved_amplitude_sigma), 3)
+         << " sigma. " << resolved << " of " << rows.size()
          << " parameters are; elsewhere the per-N values above, beside the seed's law at the "
             "same N, are the results.\n\n"
          << markdown_table({"parameter", "jamflow O_inf", "seed O_inf", "difference", "resolution"},

@@ -256,6 +256,21 @@ TEST(ReportsFromJson, APipeInACellDoesNotSplitIt) {
   EXPECT_NE(row.find("needs \\|A\\| > 2 sigma"), std::string::npos) << row;
 }
 
+// The resolution rule the report states is the analysis' (its options in the JSON).
+TEST(ReportsFromJson, FiniteSizeRuleComesFromTheOptions) {
+  GridInputs in;
+  load_grid(in, "finite-size");
+  Json result = in.result;
+  Json options = result.at("options");
+  options["resolved_amplitude_sigma"] = 3.0;
+  options["min_sizes_for_extrapolation"] = 5.0;
+  result["options"] = options;
+  const std::string report = grid_report("finite-size", in, result);
+  EXPECT_NE(report.find("over at least 5 sizes whose A_O differs from 0 by more than 3 sigma"),
+            std::string::npos)
+      << report;
+}
+
 // The integrators the header and the cost table name are those of the table's integrator column,
 // RKC by its tolerance in units of delta = P: a row that ran at ten times the tolerance is named
 // apart, and counted apart.
