@@ -8,16 +8,11 @@
 #include <stdexcept>
 
 #include "analysis/errors.hpp"
+#include "analysis/format.hpp"
 
 namespace jamflow::analysis {
 
 namespace {
-
-std::string fmt(double x) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.4g", x);
-  return buf;
-}
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -52,14 +47,14 @@ std::string degeneracy(const FitResult& fit, const std::vector<ParameterBound>& 
       if (b.name != fit.names[k])
         continue;
       if (b.lower && m.value < *b.lower)
-        add(b.name + " = " + fmt(m.value) + " is below its physical range (>= " + fmt(*b.lower) +
-            ")");
+        add(b.name + " = " + fmt(m.value, "%.4g") +
+            " is below its physical range (>= " + fmt(*b.lower, "%.4g") + ")");
       if (b.upper && m.value > *b.upper)
-        add(b.name + " = " + fmt(m.value) + " is above its physical range (<= " + fmt(*b.upper) +
-            ")");
+        add(b.name + " = " + fmt(m.value, "%.4g") +
+            " is above its physical range (<= " + fmt(*b.upper, "%.4g") + ")");
     }
     if (!(m.error < std::fabs(m.value)))
-      add(fit.names[k] + " = " + fmt(m.value) + " +- " + fmt(m.error) +
+      add(fit.names[k] + " = " + fmt(m.value, "%.4g") + " +- " + fmt(m.error, "%.4g") +
           " is not determined (error >= |value|)");
   }
   return why;
@@ -207,7 +202,7 @@ ErrorModel power_law_error_model(const FitData& data, const PowerLawForm& form,
     m.parameters[k].window = window[k];
   if (reference_b) {
     try {
-      fo.label = options.label + ", " + form.b_name + " fixed at " + fmt(*reference_b);
+      fo.label = options.label + ", " + form.b_name + " fixed at " + fmt(*reference_b, "%.4g");
       const FitResult fixed = fit_power_law_fixed_exponent(data, form, *reference_b, fo);
       for (std::size_t k = 0; k < m.parameters.size(); ++k) {
         const std::string& name = m.parameters[k].name;

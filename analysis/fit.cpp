@@ -17,6 +17,7 @@
 #include <stdexcept>
 
 #include "analysis/errors.hpp"
+#include "analysis/format.hpp"
 
 namespace jamflow::analysis {
 
@@ -49,12 +50,6 @@ struct GslWorkspaceDeleter {
 };
 using VectorPtr = std::unique_ptr<gsl_vector, GslVectorDeleter>;
 using MatrixPtr = std::unique_ptr<gsl_matrix, GslMatrixDeleter>;
-
-std::string fmt(double x) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.6g", x);
-  return buf;
-}
 
 // GSL's default handler aborts the process; we check every return code.
 void disable_gsl_abort() {

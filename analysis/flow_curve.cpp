@@ -10,16 +10,11 @@
 #include <tuple>
 
 #include "analysis/errors.hpp"
+#include "analysis/format.hpp"
 
 namespace jamflow::analysis {
 
 namespace {
-
-std::string fmt(double x) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.6g", x);
-  return buf;
-}
 
 FitData curve_data(const std::vector<ShearPoint>& curve) {
   FitData d;

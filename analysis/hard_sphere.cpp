@@ -11,6 +11,7 @@
 #include <set>
 
 #include "analysis/errors.hpp"
+#include "analysis/format.hpp"
 #include "analysis/json.hpp"
 #include "analysis/report.hpp"
 #include "analysis/seed.hpp"
@@ -18,12 +19,6 @@
 namespace jamflow::analysis {
 
 namespace {
-
-std::string fmt(double x, const char* f = "%.6g") {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, f, x);
-  return buf;
-}
 
 std::string size_label(std::int64_t n) {
   return "N=" + std::to_string(n);

@@ -19,6 +19,7 @@
 #include <set>
 
 #include "analysis/errors.hpp"
+#include "analysis/format.hpp"
 
 namespace jamflow::analysis {
 
@@ -26,12 +27,6 @@ namespace {
 
 constexpr double kPenalty = 1e30;       // objective outside the allowed domain
 constexpr double kMinAbsDelta = 1e-12;  // a curve at phi = phi_J cannot be scaled
-
-std::string fmt(double x) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.6g", x);
-  return buf;
-}
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());

@@ -8,18 +8,13 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "analysis/format.hpp"
 #include "analysis/seed.hpp"
 #include "lib/statistics.hpp"
 
 namespace jamflow::analysis {
 
 namespace {
-
-std::string fmt(double x, const char* f = "%.6g") {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, x);
-  return buf;
-}
 
 Json fit_summary(const FitResult& f) {
   Json j = Json::object();
