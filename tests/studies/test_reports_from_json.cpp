@@ -196,6 +196,18 @@ TEST(ReportsFromJson, FiniteSizeInfinityVerdictCarriesItsSystematic) {
   EXPECT_EQ(large.find("disagrees"), std::string::npos) << large;
 }
 
+// `result` with its extrapolated.<parameter> entry changed by `change`.
+template <class Change>
+Json with_extrapolation(const Json& result, const std::string& parameter, const Change& change) {
+  Json out = result;
+  Json ex = out.at("extrapolated");
+  Json pe = ex.contains(parameter) ? ex.at(parameter) : Json::object();
+  change(pe);
+  ex[parameter] = pe;
+  out["extrapolated"] = ex;
+  return out;
+}
+
 // What the sizes could resolve is read from the JSON's sensitivity: its chance, its error scale
 // (shown as how much smaller the errors must be, and the replicas that takes) and alpha_O's
 // error, which bounds nu's precision.
@@ -205,7 +217,6 @@ TEST(ReportsFromJson, FiniteSizeSensitivityComesFromTheJson) {
   ASSERT_TRUE(in.result.contains("extrapolated"));
   ASSERT_TRUE(in.result.at("extrapolated").contains("phi_J"));
   const auto report_with = [&](double z, double chance, double scale, double sigma_alpha) {
-    Json result = in.result;
     Json sv = Json::object();
     sv["A"] = seed::table2("phi_J").a;
     sv["alpha"] = seed::table2("phi_J").alpha;
@@ -215,12 +226,9 @@ TEST(ReportsFromJson, FiniteSizeSensitivityComesFromTheJson) {
     sv["sigma_alpha"] = sigma_alpha;
     sv["threshold_sigma"] = 2.0;
     sv["target_chance"] = 0.8;
-    Json ex = result.at("extrapolated");
-    Json pe = ex.at("phi_J");
-    pe["sensitivity"] = sv;
-    ex["phi_J"] = pe;
-    result["extrapolated"] = ex;
-    return grid_report("finite-size", in, result);
+    return grid_report("finite-size", in, with_extrapolation(in.result, "phi_J", [&](Json& pe) {
+                         pe["sensitivity"] = sv;
+                       }));
   };
   const std::string low = report_with(0.52, 0.075, 0.18, 0.41);
   const std::string high = report_with(3.5, 0.93, 1.23, 0.1);
@@ -240,13 +248,10 @@ TEST(ReportsFromJson, FiniteSizeSensitivityComesFromTheJson) {
 TEST(ReportsFromJson, APipeInACellDoesNotSplitIt) {
   GridInputs in;
   load_grid(in, "finite-size");
-  Json result = in.result;
-  Json ex = result.at("extrapolated");
-  Json pe = ex.at("phi_J");
-  pe["resolved"] = false;
-  pe["resolution"] = "A = -0.4 ± 1.2: not resolved (needs |A| > 2 sigma)";
-  ex["phi_J"] = pe;
-  result["extrapolated"] = ex;
+  const Json result = with_extrapolation(in.result, "phi_J", [](Json& pe) {
+    pe["resolved"] = false;
+    pe["resolution"] = "A = -0.4 ± 1.2: not resolved (needs |A| > 2 sigma)";
+  });
   const std::string row = line_starting(grid_report("finite-size", in, result), "| phi_J | - |");
   ASSERT_FALSE(row.empty());
   int delimiters = 0;
