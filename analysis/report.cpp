@@ -181,10 +181,10 @@ std::string format_measured(const Measured& m) {
 std::string markdown_cell(const std::string& text) {
   std::string out;
   out.reserve(text.size());
-  for (const char c : text) {
-    if (c == '|')
+  for (std::size_t k = 0; k < text.size(); ++k) {
+    if (text[k] == '|' && (k == 0 || text[k - 1] != '\\'))
       out += '\\';
-    out += c;
+    out += text[k];
   }
   return out;
 }

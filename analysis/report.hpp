@@ -25,7 +25,7 @@ Json error_model_json(const ErrorModel& m);
 std::string format_measured(const Measured& m);
 
 // Text for one markdown table cell: a '|' (as in "|t| <= 4") is escaped, so that it does not
-// split the cell.
+// split the cell; one already escaped ("\\|") is kept as it is.
 std::string markdown_cell(const std::string& text);
 
 Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
