@@ -620,9 +620,7 @@ HardSphereResult analyze_hard_sphere(const std::vector<GranularPoint>& points,
       fo.label = name + "(N) = " + name + "_inf + A N^-alpha";
       Extrapolation ex = extrapolate_in_size(name, ns, vs, es, fo);
       const seed::SizeLaw& law = seed::table2(name);
-      if (ns.size() >= 3)
-        ex.sensitivity =
-            size_sensitivity(law.a, law.alpha, ns, es, options.resolved_amplitude_sigma);
+      ex.sensitivity = size_sensitivity(law.a, law.alpha, ns, es, options.resolved_amplitude_sigma);
       for (const auto& s : r.sizes) {
         const ErrorModel& em = name.find("phi") != std::string::npos ? s.phi_errors : s.mu_errors;
         for (const auto& pe : em.parameters) {

@@ -131,6 +131,11 @@ analysis::Json read_analysis(const std::string& study, const std::string& json_p
   }
 }
 
+double number_of(const analysis::Json& j, const std::string& key, double fallback) {
+  return j.is_object() && j.contains(key) && j.at(key).is_number() ? j.at(key).as_number()
+                                                                   : fallback;
+}
+
 bool measured(const analysis::Json& j, const std::string& key, double& v, double& e) {
   if (!j.is_object() || !j.contains(key))
     return false;
@@ -138,16 +143,14 @@ bool measured(const analysis::Json& j, const std::string& key, double& v, double
   if (!m.is_object() || !m.contains("value") || !m.at("value").is_number())
     return false;
   v = m.at("value").as_number();
-  e = m.contains("error") && m.at("error").is_number() ? m.at("error").as_number() : std::nan("");
+  e = number_of(m, "error");
   return true;
 }
 
 double systematic_of(const analysis::Json& j, const std::string& key) {
   if (!j.is_object() || !j.contains(key) || !j.at(key).is_object())
     return std::nan("");
-  const auto& m = j.at(key);
-  return m.contains("systematic") && m.at("systematic").is_number() ? m.at("systematic").as_number()
-                                                                    : std::nan("");
+  return number_of(j.at(key), "systematic");
 }
 
 std::string with_systematic(double v, double e, double sys) {

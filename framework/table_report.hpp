@@ -4,6 +4,7 @@
 #pragma once
 #include <cstddef>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -44,6 +45,10 @@ double tables_hours(const std::vector<const Table*>& tables, std::size_t* rows =
 // The analysis JSON written by `jamflow analyze` (an empty object, with a warning on stderr,
 // if it is absent or unreadable).
 analysis::Json read_analysis(const std::string& study, const std::string& json_path);
+
+// The number j[key], or `fallback` if j is no object, or the member is absent or not a number.
+double number_of(const analysis::Json& j, const std::string& key,
+                 double fallback = std::numeric_limits<double>::quiet_NaN());
 
 // value and error of a {"value", "error"} member; false if absent.
 bool measured(const analysis::Json& j, const std::string& key, double& v, double& e);

@@ -59,10 +59,6 @@ std::string cost_section(const std::string& study, const Table& table, const Swe
 // the resolution rule is met were every parameter to follow the seed's Table 2 law, and nu's
 // best precision from alpha_O's error.
 std::string sensitivity_markdown(const analysis::Json& ex) {
-  const auto number = [](const analysis::Json& j, const char* key) {
-    return j.contains(key) && j.at(key).is_number() ? j.at(key).as_number()
-                                                    : std::numeric_limits<double>::quiet_NaN();
-  };
   std::vector<std::vector<std::string>> rows;
   std::vector<std::string> nu;
   double threshold = std::numeric_limits<double>::quiet_NaN();
@@ -72,15 +68,15 @@ std::string sensitivity_markdown(const analysis::Json& ex) {
     if (!ex.contains(p) || !ex.at(p).contains("sensitivity"))
       continue;
     const auto& sv = ex.at(p).at("sensitivity");
-    const double z = number(sv, "A_over_sigma"), chance = number(sv, "chance_resolved");
-    const double scale = number(sv, "error_scale_for_target");
-    const double sa = number(sv, "sigma_alpha"), alpha = number(sv, "alpha");
+    const double z = number_of(sv, "A_over_sigma"), chance = number_of(sv, "chance_resolved");
+    const double scale = number_of(sv, "error_scale_for_target");
+    const double sa = number_of(sv, "sigma_alpha"), alpha = number_of(sv, "alpha");
     if (!std::isfinite(z) || !std::isfinite(chance) || !std::isfinite(scale))
       continue;
-    threshold = number(sv, "threshold_sigma");
-    target = number(sv, "target_chance");
+    threshold = number_of(sv, "threshold_sigma");
+    target = number_of(sv, "target_chance");
     rows.push_back(
-        {p, num(number(sv, "A"), 3), num(z, 2), num(chance, 2),
+        {p, num(number_of(sv, "A"), 3), num(z, 2), num(chance, 2),
          scale >= 1.0 ? std::string("-")
                       : num(1.0 / scale, 2) + " (replicas x " + num(1.0 / (scale * scale), 2) + ")",
          num(sa, 2) + " (" + num(alpha, 3) + ")"});
@@ -409,18 +405,16 @@ std::string report_markdown(const std::string& study, const GridPreset& grid, co
         }
       }
       // The rule's numbers from the analysis' options (older JSON: the defaults).
-      const auto option = [&](const char* key, double fallback) {
-        if (result.contains("options") && result.at("options").contains(key) &&
-            result.at("options").at(key).is_number())
-          return result.at("options").at(key).as_number();
-        return fallback;
-      };
+      const analysis::Json no_options;
+      const analysis::Json& opts = result.contains("options") ? result.at("options") : no_options;
       const analysis::HardSphereOptions defaults;
       md << "An N -> infinity value is given only where the extrapolation O(N) = O_inf + A_O "
             "N^-alpha_O is resolved: a power-law fit over at least "
-         << num(option("min_sizes_for_extrapolation", defaults.min_sizes_for_extrapolation), 3)
+         << num(number_of(opts, "min_sizes_for_extrapolation",
+                          defaults.min_sizes_for_extrapolation),
+                3)
          << " sizes whose A_O differs from 0 by more than "
-         << num(option("resolved_amplitude_sigma", defaults.resolved_amplitude_sigma), 3)
+         << num(number_of(opts, "resolved_amplitude_sigma", defaults.resolved_amplitude_sigma), 3)
          << " sigma. " << resolved << " of " << rows.size()
          << " parameters are; elsewhere the per-N values above, beside the seed's law at the "
             "same N, are the results.\n\n"

@@ -61,13 +61,10 @@ JointNumber joint_number(const analysis::Json& joint, const std::string& name, d
     return out;
   out.present = true;
   const auto& m = joint.at(name);
-  auto number = [&](const char* key) {
-    return m.contains(key) && m.at(key).is_number() ? m.at(key).as_number() : std::nan("");
-  };
-  out.p_window = number("pressure_window");
-  out.j_window = number("J_window");
-  out.form = number("fit_form");
-  out.systematic = number("systematic");
+  out.p_window = number_of(m, "pressure_window");
+  out.j_window = number_of(m, "J_window");
+  out.form = number_of(m, "fit_form");
+  out.systematic = number_of(m, "systematic");
   out.paper = paper_value(name, n);
   out.paper_source = name == "x" || name == "y" || name == "alpha"
                          ? "Sec. V A"
