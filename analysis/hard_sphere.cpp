@@ -469,6 +469,7 @@ Extrapolation extrapolate_in_size(const std::string& parameter, const std::vecto
   }
   const double chi2_min = profile[best].chi2;
   ex.chi2 = chi2_min;
+  ex.chi2_power_law = chi2_min;
   // A constant first: if it describes the data and the power law is no
   // significant improvement (Delta chi2 < 5.99, the 95 % point for its two
   // extra parameters), there is no resolved N-dependence.
@@ -482,6 +483,8 @@ Extrapolation extrapolate_in_size(const std::string& parameter, const std::vecto
     double chi2_const = 0.0;
     for (std::size_t i = 0; i < n; ++i)
       chi2_const += std::pow((values[i] - mean) / errors[i], 2);
+    ex.chi2_constant = chi2_const;
+    ex.dof_constant = static_cast<int>(n) - 1;
     if (gsl_cdf_chisq_Q(chi2_const, static_cast<double>(n - 1)) >= 0.05 &&
         chi2_const - chi2_min < 5.99) {
       ex.status = Extrapolation::Status::kConstant;

@@ -169,6 +169,12 @@ struct Extrapolation {
   double systematic = std::numeric_limits<double>::quiet_NaN();
   // At the seed's Table 2 law of this parameter, with the sizes' errors the fit used.
   std::optional<SizeSensitivity> sensitivity;
+  // A constant (the weighted mean) fitted to the same sizes: its chi2 and dof. With chi2 above,
+  // chi2_constant - chi2 is the likelihood-ratio statistic of the power law against no
+  // N-dependence, which (unlike A_O's z) does not depend on the unit of N. NaN below 4 sizes.
+  double chi2_constant = std::numeric_limits<double>::quiet_NaN();
+  int dof_constant = 0;
+  double chi2_power_law = std::numeric_limits<double>::quiet_NaN();  // its minimum over alpha
 };
 
 // Exposed for tests: sizes, values and errors of one parameter.

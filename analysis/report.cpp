@@ -8,6 +8,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <gsl/gsl_cdf.h>
+
 #include "analysis/format.hpp"
 #include "analysis/seed.hpp"
 #include "lib/statistics.hpp"
@@ -273,20 +275,28 @@ Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
     js["errors_mu"] = error_model_json(s.mu_errors);
     js["degenerate"] = s.phi_errors.degenerate || s.mu_errors.degenerate;
     {
-      // The viscosity eta/eta_0 = mu/J the envelope points reach (Fig. 7).
-      double lo = 0.0, hi = 0.0;
+      // The viscosity eta/eta_0 = mu/J the envelope points reach (Fig. 7), over which J, and how
+      // many decades the seed's Table 2 law at this N spans over the same J: the measure of the
+      // range that does not depend on how far the seed's own runs went.
+      double lo = 0.0, hi = 0.0, j_lo = 0.0, j_hi = 0.0;
       for (const auto& e : s.points) {
         const double eta = e.point.mu / e.point.j;
         if (!in_envelope(e.status) || !(eta > 0.0) || !std::isfinite(eta))
           continue;
         lo = lo > 0.0 ? std::min(lo, eta) : eta;
         hi = std::max(hi, eta);
+        j_lo = j_lo > 0.0 ? std::min(j_lo, e.point.j) : e.point.j;
+        j_hi = std::max(j_hi, e.point.j);
       }
       if (hi > 0.0) {
         Json je = Json::object();
         je["min"] = lo;
         je["max"] = hi;
         je["decades"] = std::log10(hi / lo);
+        je["J_min"] = j_lo;
+        je["J_max"] = j_hi;
+        je["seed_decades"] = std::log10(seed::hard_sphere_viscosity(j_lo, double(s.n)) /
+                                        seed::hard_sphere_viscosity(j_hi, double(s.n)));
         js["envelope_eta"] = je;
       }
     }
@@ -374,6 +384,27 @@ Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
       je["inf"]["systematic"] = number_or_null(e.systematic);
     je["resolved"] = e.resolved;
     je["resolution"] = e.resolution;
+    if (std::isfinite(e.chi2_constant) && std::isfinite(e.chi2_power_law)) {
+      // Readings that do not depend on the unit of N (analysis/README.md): the power law against
+      // a constant, and alpha_O's relative error. They decide nothing here.
+      Json ju = Json::object();
+      const double delta = std::max(0.0, e.chi2_constant - e.chi2_power_law);
+      ju["chi2_constant"] = e.chi2_constant;
+      ju["dof_constant"] = e.dof_constant;
+      ju["chi2_power_law"] = e.chi2_power_law;
+      ju["delta_chi2"] = delta;
+      ju["p_constant"] = gsl_cdf_chisq_Q(delta, 2.0);
+      if (e.status == Extrapolation::Status::kFit) {
+        const Measured a = e.fit->at(2);
+        ju["alpha_relative_error"] = number_or_null(a.error / std::fabs(a.value));
+      }
+      ju["note"] =
+          "likelihood ratio of O_inf + A_O N^-alpha_O (alpha_O profiled) against a constant: "
+          "delta_chi2 on unscaled errors, p_constant from chi2 with 2 dof (approximate: alpha_O "
+          "is not defined under a constant); alpha_relative_error from the fit's (scaled) "
+          "covariance. Neither depends on the unit of N; the resolution rule does not use them";
+      je["unit_free"] = ju;
+    }
     if (e.sensitivity) {
       const SizeSensitivity& sv = *e.sensitivity;
       Json js = Json::object();

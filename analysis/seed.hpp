@@ -41,6 +41,15 @@ inline double hard_sphere_phi(double j, double n) {
   return table2("phi_J").at(n) - table2("C_phi").at(n) * std::pow(j, table2("b_phi").at(n));
 }
 
+// The friction coefficient mu(J) = mu_J + C_mu J^b_mu at size N, from Table 2, and the viscosity
+// eta / eta_0 = mu(J) / J on the hard-sphere flow curve.
+inline double hard_sphere_mu(double j, double n) {
+  return table2("mu_J").at(n) + table2("C_mu").at(n) * std::pow(j, table2("b_mu").at(n));
+}
+inline double hard_sphere_viscosity(double j, double n) {
+  return hard_sphere_mu(j, n) / j;
+}
+
 // Correlation length xi ~ J^-nu, nu = b / (alpha_O d).
 inline constexpr double kNuPhi = 0.153, kNuMu = 0.184;
 

@@ -158,6 +158,30 @@ TEST(HardSphere, RecoversOneSizeFromDataWithFinitePressureDeviations) {
   EXPECT_GT(std::fabs(naive.params[2] - t.b_phi), 10 * naive.at(2).error);
 }
 
+// The viscosity range of the envelope: its J ends are those of the accepted points, and on
+// hard-sphere data from Table 2's law the decades it reaches are the decades the seed's law
+// spans over the same J (2% noise on mu's J-dependent part moves each end by < 0.005 decades;
+// tolerance 0.02).
+TEST(HardSphere, EnvelopeViscosityRangeMatchesTheSeedsLawOverTheSameJ) {
+  GranularSpec spec;
+  spec.soft = false;
+  const HardSphereResult r = analyze_hard_sphere(make_granular(spec), HardSphereOptions{});
+  ASSERT_EQ(r.sizes.size(), 1u);
+  double j_lo = 1e300, j_hi = 0.0;
+  for (const auto& e : r.sizes[0].points) {
+    if (!in_envelope(e.status))
+      continue;
+    j_lo = std::min(j_lo, e.point.j);
+    j_hi = std::max(j_hi, e.point.j);
+  }
+  const Json ee =
+      hard_sphere_json(r, HardSphereOptions{}, {}).at("sizes").at("1000").at("envelope_eta");
+  EXPECT_DOUBLE_EQ(ee.at("J_min").as_number(), j_lo);
+  EXPECT_DOUBLE_EQ(ee.at("J_max").as_number(), j_hi);
+  EXPECT_GT(ee.at("decades").as_number(), 5.0);  // J from about 1e-8 to 1e-2
+  EXPECT_NEAR(ee.at("seed_decades").as_number(), ee.at("decades").as_number(), 0.02);
+}
+
 TEST(HardSphere, FullAnalysisRecoversTable2AndNu) {
   GranularSpec spec;
   spec.sizes = {100, 300, 500, 1000, 3000, 10000};
@@ -381,6 +405,65 @@ TEST(Extrapolation, StatusFollowsWhatTheDataResolve) {
       extrapolate_in_size("phi_J", {100, 300, 1000}, {0.64, 0.645, 0.646}, {1e-4, 1e-4, 1e-4}, o);
   EXPECT_EQ(few.status, Status::kFailed);
   EXPECT_NE(few.message.find("at least 4"), std::string::npos) << few.message;
+}
+
+// The two readings written beside the resolution rule do not depend on the unit N is counted in
+// (the rule's z of A_O does): the same noisy values with N in hundredths of a particle give the
+// same chi2 of a constant, the same minimum of the power law's and the same sigma_alpha / alpha,
+// while A_O and its z change. On exact data the power law's chi2 is 0 and the constant's is the
+// weighted scatter about the mean.
+TEST(Extrapolation, UnitFreeReadingsDoNotDependOnTheUnitOfN) {
+  const std::vector<double> sizes = {100, 250, 500, 1000, 2000};
+  const std::vector<double> err = {6e-4, 5e-4, 4e-4, 3e-4, 3e-4};
+  FitOptions o;
+  o.label = "O(N)";
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::vector<double> v, exact;
+  for (std::size_t i = 0; i < sizes.size(); ++i) {
+    exact.push_back(0.6474 - 0.6 * std::pow(sizes[i], -0.7));
+    v.push_back(exact.back() + err[i] * gauss(rng));
+  }
+  std::vector<double> hundredths;
+  for (double n : sizes)
+    hundredths.push_back(100.0 * n);
+  const Extrapolation a = extrapolate_in_size("phi_J", sizes, v, err, o);
+  const Extrapolation b = extrapolate_in_size("phi_J", hundredths, v, err, o);
+  ASSERT_EQ(a.status, Extrapolation::Status::kFit) << a.message;
+  ASSERT_EQ(b.status, Extrapolation::Status::kFit) << b.message;
+  EXPECT_DOUBLE_EQ(a.chi2_constant, b.chi2_constant);
+  EXPECT_EQ(a.dof_constant, 4);
+  // The profile is on a grid of alpha normalised at the smallest size, the same in both units.
+  EXPECT_NEAR(a.chi2_power_law, b.chi2_power_law, 1e-9 * a.chi2_constant);
+  EXPECT_GT(a.chi2_constant - a.chi2_power_law, 5.99);  // a clear N-dependence
+  const double rel_a = a.fit->at(2).error / a.fit->at(2).value;
+  const double rel_b = b.fit->at(2).error / b.fit->at(2).value;
+  EXPECT_NEAR(rel_a, rel_b, 1e-3 * rel_a);
+  const double z_a = std::fabs(a.fit->at(1).value) / a.fit->at(1).error;
+  const double z_b = std::fabs(b.fit->at(1).value) / b.fit->at(1).error;
+  EXPECT_GT(std::fabs(z_a - z_b), 0.1 * z_a) << z_a << " " << z_b;
+  // The JSON carries them with the chi2 p-value of the likelihood ratio.
+  HardSphereResult r;
+  r.extrapolations.push_back(a);
+  const Json u =
+      hard_sphere_json(r, HardSphereOptions{}, {}).at("extrapolated").at("phi_J").at("unit_free");
+  const double delta = a.chi2_constant - a.chi2_power_law;
+  EXPECT_DOUBLE_EQ(u.at("delta_chi2").as_number(), delta);
+  EXPECT_NEAR(u.at("p_constant").as_number(), std::exp(-delta / 2.0), 1e-12);  // chi2, 2 dof
+  EXPECT_NEAR(u.at("alpha_relative_error").as_number(), rel_a, 1e-12);
+  // Exact data.
+  const Extrapolation c = extrapolate_in_size("phi_J", sizes, exact, err, o);
+  double sw = 0.0, swy = 0.0;
+  for (std::size_t i = 0; i < sizes.size(); ++i) {
+    sw += 1.0 / (err[i] * err[i]);
+    swy += exact[i] / (err[i] * err[i]);
+  }
+  double scatter = 0.0;
+  for (std::size_t i = 0; i < sizes.size(); ++i)
+    scatter += std::pow((exact[i] - swy / sw) / err[i], 2);
+  EXPECT_NEAR(c.chi2_constant, scatter, 1e-9 * scatter);
+  // The grid of alpha passes within half a step of 0.7: chi2 well below one.
+  EXPECT_LT(c.chi2_power_law, 0.05);
 }
 
 // The sensitivity's Fisher errors are those of the fit itself: on data that follow the law

@@ -244,6 +244,36 @@ TEST(ReportsFromJson, FiniteSizeSensitivityComesFromTheJson) {
   EXPECT_NE(high.find("no better than ±12% from phi"), std::string::npos) << high;
 }
 
+// The unit-free readings and the viscosity range are the JSON's: a changed delta chi2, p and
+// sigma_alpha / alpha appear in the table, and a changed seed_decades in the sentence.
+TEST(ReportsFromJson, UnitFreeReadingsAndViscosityRangeComeFromTheJson) {
+  GridInputs in;
+  load_grid(in, "finite-size");
+  Json result = with_extrapolation(in.result, "phi_J", [](Json& pe) {
+    Json u = Json::object();
+    u["delta_chi2"] = 1.25;
+    u["p_constant"] = 0.535;
+    u["alpha_relative_error"] = 0.123;
+    pe["unit_free"] = u;
+  });
+  Json sizes = result.at("sizes");
+  Json n500 = sizes.at("500");
+  Json ee = n500.at("envelope_eta");
+  ee["seed_decades"] = 7.77;
+  ee["J_min"] = 0.0042;
+  ee["J_max"] = 1.0;
+  n500["envelope_eta"] = ee;
+  sizes["500"] = n500;
+  result["sizes"] = sizes;
+  const std::string report = grid_report("finite-size", in, result);
+  EXPECT_NE(line_starting(report, "| phi_J | 1.25 | 0.54 | 0.12 |").size(), 0u) << report;
+  const std::string line = line_starting(report, "N = 500: the P -> 0 envelope reaches");
+  EXPECT_NE(line.find("(J = 1 to 0.0042)"), std::string::npos) << line;
+  EXPECT_NE(line.find("the seed's Table 2 law at N = 500 spans 7.77 decades over the same J"),
+            std::string::npos)
+      << line;
+}
+
 // A '|' in a cell's text (as in "needs |A| > 2 sigma") is escaped: the row keeps its five cells.
 TEST(ReportsFromJson, APipeInACellDoesNotSplitIt) {
   GridInputs in;
