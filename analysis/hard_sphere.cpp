@@ -416,6 +416,17 @@ SizeSensitivity size_sensitivity(double a, double alpha, const std::vector<doubl
   return s;
 }
 
+std::optional<UnitFreeReading> unit_free_reading(const Extrapolation& e) {
+  if (!std::isfinite(e.chi2_constant) || !std::isfinite(e.chi2_power_law))
+    return std::nullopt;
+  UnitFreeReading u;
+  u.delta_chi2 = std::max(0.0, e.chi2_constant - e.chi2_power_law);
+  u.p_constant = gsl_cdf_chisq_Q(u.delta_chi2, 2.0);
+  if (e.status == Extrapolation::Status::kFit && e.fit)
+    u.alpha_relative_error = e.fit->at(2).error / std::fabs(e.fit->at(2).value);
+  return u;
+}
+
 Extrapolation extrapolate_in_size(const std::string& parameter, const std::vector<double>& sizes,
                                   const std::vector<double>& values,
                                   const std::vector<double>& errors, const FitOptions& options) {

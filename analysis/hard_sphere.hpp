@@ -177,6 +177,16 @@ struct Extrapolation {
   double chi2_power_law = std::numeric_limits<double>::quiet_NaN();  // its minimum over alpha
 };
 
+// Readings of an extrapolation that do not depend on the unit of N (the resolution rule's z of A
+// does): the likelihood ratio of the power law against a constant, delta_chi2 = chi2_constant -
+// chi2_power_law (unscaled errors), its p from chi2 with 2 dof (approximate: alpha is undefined
+// under a constant), and for a kFit sigma_alpha / alpha (else NaN). nullopt below 4 sizes.
+struct UnitFreeReading {
+  double delta_chi2 = 0.0, p_constant = 0.0;
+  double alpha_relative_error = std::numeric_limits<double>::quiet_NaN();
+};
+std::optional<UnitFreeReading> unit_free_reading(const Extrapolation& e);
+
 // Exposed for tests: sizes, values and errors of one parameter.
 Extrapolation extrapolate_in_size(const std::string& parameter, const std::vector<double>& sizes,
                                   const std::vector<double>& values,

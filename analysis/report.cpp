@@ -8,8 +8,6 @@
 #include <sstream>
 #include <stdexcept>
 
-#include <gsl/gsl_cdf.h>
-
 #include "analysis/format.hpp"
 #include "analysis/seed.hpp"
 #include "lib/statistics.hpp"
@@ -384,20 +382,16 @@ Json hard_sphere_json(const HardSphereResult& r, const HardSphereOptions& o,
       je["inf"]["systematic"] = number_or_null(e.systematic);
     je["resolved"] = e.resolved;
     je["resolution"] = e.resolution;
-    if (std::isfinite(e.chi2_constant) && std::isfinite(e.chi2_power_law)) {
-      // Readings that do not depend on the unit of N (analysis/README.md): the power law against
-      // a constant, and alpha_O's relative error. They decide nothing here.
+    if (const auto u = unit_free_reading(e)) {
+      // Readings that do not depend on the unit of N (analysis/README.md). They decide nothing.
       Json ju = Json::object();
-      const double delta = std::max(0.0, e.chi2_constant - e.chi2_power_law);
       ju["chi2_constant"] = e.chi2_constant;
       ju["dof_constant"] = e.dof_constant;
       ju["chi2_power_law"] = e.chi2_power_law;
-      ju["delta_chi2"] = delta;
-      ju["p_constant"] = gsl_cdf_chisq_Q(delta, 2.0);
-      if (e.status == Extrapolation::Status::kFit) {
-        const Measured a = e.fit->at(2);
-        ju["alpha_relative_error"] = number_or_null(a.error / std::fabs(a.value));
-      }
+      ju["delta_chi2"] = u->delta_chi2;
+      ju["p_constant"] = u->p_constant;
+      if (std::isfinite(u->alpha_relative_error))
+        ju["alpha_relative_error"] = u->alpha_relative_error;
       ju["note"] =
           "likelihood ratio of O_inf + A_O N^-alpha_O (alpha_O profiled) against a constant: "
           "delta_chi2 on unscaled errors, p_constant from chi2 with 2 dof (approximate: alpha_O "
@@ -473,6 +467,30 @@ std::string sensitivity_markdown(const HardSphereResult& r, const HardSphereOpti
        << " | " << fmt(s.sigma_alpha, "%.2g") << " (" << fmt(s.alpha) << ") |\n";
   }
   md << "\n";
+  return md.str();
+}
+
+// The readings that do not depend on the unit of N (JSON `unit_free`); they decide nothing.
+std::string unit_free_markdown(const std::vector<Extrapolation>& extrapolations) {
+  std::ostringstream md;
+  bool any = false;
+  for (const auto& e : extrapolations) {
+    const auto u = unit_free_reading(e);
+    if (!u)
+      continue;
+    if (!any)
+      md << "Unit-free readings (the rule's z of A depends on the unit of N; these do not, and "
+            "decide nothing): the power law against a constant, delta chi2 (unscaled errors) "
+            "and its approximate chi2(2) p, and sigma_alpha / alpha:\n\n"
+            "| O | delta chi2 | p (constant) | sigma_alpha / alpha |\n|---|---|---|---|\n";
+    any = true;
+    md << "| " << e.parameter << " | " << fmt(u->delta_chi2, "%.3g") << " | "
+       << fmt(u->p_constant, "%.2g") << " | "
+       << (std::isfinite(u->alpha_relative_error) ? fmt(u->alpha_relative_error, "%.2g") : "-")
+       << " |\n";
+  }
+  if (any)
+    md << "\n";
   return md.str();
 }
 
@@ -572,6 +590,7 @@ std::string hard_sphere_markdown(const HardSphereResult& r, const HardSphereOpti
           "O_inf is the weighted mean. O_inf 'not resolved': no convergence with N, O_inf "
           "undetermined.)\n\n";
     md << sensitivity_markdown(r, o);
+    md << unit_free_markdown(r.extrapolations);
   }
   md << "## Correlation-length exponent nu = b / (alpha_O d), d = " << o.dimension << "\n\n";
   md << "| from | nu | paper |\n|---|---|---|\n";
