@@ -5,7 +5,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+#include <set>
 #include <sstream>
+#include <tuple>
 
 #include <toml++/toml.h>
 
@@ -48,7 +50,16 @@ GridPreset grid_preset(const std::string& preset) {
     g.js = {1.0, 0.3, 0.1, 0.03, 0.01, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5};
     g.gdot_min = 3.9e-9;  // the seed's smallest shear rate, 3.98e-9
     g.replicas = 3;
-    g.why = "the seed's grid: six sizes, P from 1e-2 to 1e-5, gdot down to 4e-9; a cluster";
+    // With that floor the hard-sphere limit ends at J = 1e-3 (P = 1e-5), 2.5 decades of
+    // viscosity: J = 3e-4 remains only at P = 3e-5, which at N = 1000 is outside the limit (the
+    // standard results). A ladder at N = 1000 below the seed's floor reaches J = 3e-5 (4
+    // decades), each J at two pressures so that the envelope can test it: J = 3e-4 at 1e-5 and
+    // 3e-6, J = 1e-4 and 3e-5 at 3e-6 and 1e-6. About 390 of the preset's 2.66e3 CPU-hours.
+    g.extensions.push_back({{1000}, {1e-5, 3e-6}, {3e-4}, 0.0});
+    g.extensions.push_back({{1000}, {3e-6, 1e-6}, {1e-4, 3e-5}, 0.0});
+    g.why =
+        "the seed's grid: six sizes, P from 1e-2 to 1e-5, gdot down to 4e-9; and at "
+        "N = 1000 a ladder to J = 3e-5 at P = 3e-6 and 1e-6; a cluster";
   } else {
     throw ConfigError("--preset " + preset + "; allowed quick, standard, paper");
   }
@@ -99,23 +110,28 @@ std::string pressure_sweep_text(const GridPreset& g) {
   plan.replicas = g.replicas;
   plan.base_phi = 0.6;
   plan.constant_pressure = true;
-  for (const auto n : g.sizes) {
-    for (const double p : g.pressures) {
-      for (const double j : g.js) {
-        const double gdot = round3(j * p);  // 9e-05, not 8.999999999999999e-05
-        if (gdot < g.gdot_min)
-          continue;
-        PlannedPoint pt;
-        pt.n = n;
-        // The start: the seed's hard-sphere law, 0.01 lower and at most 0.63.
-        pt.phi = std::round(phi_start(j, n, 0.01, 0.63) * 1e4) / 1e4;
-        pt.pressure = p;
-        pt.shear_rate = gdot;
-        pt.t_eq = round3(std::max({g.strain_eq / gdot, g.relax_pressure / p, g.t_eq_min}));
-        pt.t_av = g.t_av_is_t_eq ? pt.t_eq : round3(std::max(g.strain_av / gdot, g.t_av_min));
-        pt.sample_every = round3(pt.t_av / g.samples);
-        pt.integrator = integrator_for(n, p).settings;
-        plan.points.push_back(std::move(pt));
+  std::vector<GridPreset::Extension> parts{{g.sizes, g.pressures, g.js, g.gdot_min}};
+  parts.insert(parts.end(), g.extensions.begin(), g.extensions.end());
+  std::set<std::tuple<std::int64_t, double, double>> planned;
+  for (const auto& part : parts) {
+    for (const auto n : part.sizes) {
+      for (const double p : part.pressures) {
+        for (const double j : part.js) {
+          const double gdot = round3(j * p);  // 9e-05, not 8.999999999999999e-05
+          if (gdot < part.gdot_min || !planned.insert({n, p, gdot}).second)
+            continue;
+          PlannedPoint pt;
+          pt.n = n;
+          // The start: the seed's hard-sphere law, 0.01 lower and at most 0.63.
+          pt.phi = std::round(phi_start(j, n, 0.01, 0.63) * 1e4) / 1e4;
+          pt.pressure = p;
+          pt.shear_rate = gdot;
+          pt.t_eq = round3(std::max({g.strain_eq / gdot, g.relax_pressure / p, g.t_eq_min}));
+          pt.t_av = g.t_av_is_t_eq ? pt.t_eq : round3(std::max(g.strain_av / gdot, g.t_av_min));
+          pt.sample_every = round3(pt.t_av / g.samples);
+          pt.integrator = integrator_for(n, p).settings;
+          plan.points.push_back(std::move(pt));
+        }
       }
     }
   }

@@ -33,6 +33,14 @@ struct GridPreset {
   double t_eq_min = 500.0, t_av_min = 1000.0;
   int samples = 1000;  // per averaging window (20 blocks of 50)
   std::string why;     // one line: what the preset is for
+  // Points beyond the grid: every size x pressure x J of each extension whose gdot = J P is at
+  // least the extension's own gdot_min (a point the grid has already is not repeated).
+  struct Extension {
+    std::vector<std::int64_t> sizes;
+    std::vector<double> pressures, js;
+    double gdot_min = 0.0;
+  };
+  std::vector<Extension> extensions;
 };
 
 // quick (CI: the pipeline end to end, not the physics), standard (about 6 CPU-hours: N = 1000

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 #include <set>
 
 #include "analysis/seed.hpp"
@@ -49,6 +50,36 @@ TEST(HardSpherePoints, StandardGridIsEveryPressureAndJAboveTheRateFloor) {
   }
   EXPECT_EQ(names.size(), p.points.size());
   EXPECT_NE(names.count("pressure-1e-05_rate-3e-09_N-1000"), 0u);  // J = 3e-4
+}
+
+// The paper preset is the seed's grid above its shear-rate floor, plus the low-J ladder at
+// N = 1000 below it: every J of the ladder at two pressures (so that the envelope can test it),
+// nothing else below the floor, and no point twice where a ladder meets the grid.
+TEST(HardSpherePoints, PaperPresetAddsTheLowJLadderAtOneSize) {
+  const GridPreset g = grid_preset("paper");
+  ASSERT_FALSE(g.extensions.empty());
+  const sweep::Plan p = plan_of(g);
+  std::set<std::string> names;
+  std::map<double, std::set<double>> ladder;  // J -> pressures, below the floor
+  for (const auto& pt : p.points) {
+    names.insert(pt.name);
+    const double pressure = pt.scene.table("ensemble")->get("pressure")->as_floating_point()->get();
+    const double rate = pt.scene.table("shear")->get("rate")->as_floating_point()->get();
+    const auto n = pt.scene.table("system")->get("N")->as_integer()->get();
+    if (rate >= g.gdot_min)
+      continue;
+    EXPECT_EQ(n, 1000) << pt.name;
+    ladder[std::round(rate / pressure * 1e6) / 1e6].insert(pressure);
+  }
+  EXPECT_EQ(names.size(), p.points.size());
+  ASSERT_EQ(ladder.size(), 3u);  // J = 3e-5, 1e-4, 3e-4
+  EXPECT_EQ(ladder.begin()->first, 3e-5);
+  for (const auto& [j, pressures] : ladder)
+    EXPECT_EQ(pressures.size(), 2u) << j;
+  // The grid's own points are those of the seed's grid without the ladder.
+  GridPreset seed_grid = g;
+  seed_grid.extensions.clear();
+  EXPECT_EQ(plan_of(seed_grid).points.size() + 6u, p.points.size());
 }
 
 TEST(HardSpherePoints, IntegratorFollowsSizeAndPressure) {
