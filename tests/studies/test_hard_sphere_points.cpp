@@ -80,6 +80,12 @@ TEST(HardSpherePoints, PaperPresetAddsTheLowJLadderAtOneSize) {
   GridPreset seed_grid = g;
   seed_grid.extensions.clear();
   EXPECT_EQ(plan_of(seed_grid).points.size() + 6u, p.points.size());
+  // The finite-size study's paper preset is the seed's grid alone: its sizes share one J window.
+  const sweep::Plan fs = plan_of(finite_size_preset("paper"));
+  EXPECT_EQ(fs.points.size(), plan_of(seed_grid).points.size());
+  for (const auto& pt : fs.points)
+    EXPECT_GE(pt.scene.table("shear")->get("rate")->as_floating_point()->get(), g.gdot_min)
+        << pt.name;
 }
 
 TEST(HardSpherePoints, IntegratorFollowsSizeAndPressure) {
